@@ -1,0 +1,36 @@
+# Thin wrapper over CMake: `make` builds, `make run` runs the demo, `make test` runs every test.
+JOBS ?= $(shell nproc)
+BUILD := build
+ASAN_BUILD := build-asan
+DEMO := demo
+
+.PHONY: all setup build run test test-asan bench clean
+
+all: build
+
+setup:
+	@bash scripts/setup.sh
+
+build: setup
+	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release >/dev/null
+	@cmake --build $(BUILD) -j $(JOBS)
+
+# The main job on the embedded default: see scripts/demo.sh.
+run: build
+	@bash scripts/demo.sh $(BUILD)/gaussvid $(DEMO)
+
+test: build
+	@cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+	@$(MAKE) --no-print-directory test-asan
+
+# The unit tests again under AddressSanitizer and UBSan.
+test-asan: setup
+	@cmake -S . -B $(ASAN_BUILD) -DCMAKE_BUILD_TYPE=Debug -DGV_SANITIZE=ON >/dev/null
+	@cmake --build $(ASAN_BUILD) -j $(JOBS)
+	@cd $(ASAN_BUILD) && ctest --output-on-failure -j $(JOBS) -L unit
+
+bench: build
+	@$(BUILD)/gaussvid bench all
+
+clean:
+	rm -rf $(BUILD) $(ASAN_BUILD)

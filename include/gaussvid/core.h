@@ -1,0 +1,121 @@
+/* Core services shared by every module: errors, logging, timing, progress bars, files
+ * written atomically, command-line flags and a counter-based random number generator. */
+#ifndef GAUSSVID_CORE_H
+#define GAUSSVID_CORE_H
+
+#include <stdint.h>
+#include <stdio.h>
+#include <stddef.h>
+
+/* ---- Errors ---------------------------------------------------------------------------
+ * Functions that can fail return 0 on success and -1 on failure, after recording one line
+ * that names the input and what is wrong (SQLite style). The caller either handles it or
+ * passes -1 up; the command line prints it. The message is per thread. */
+int gv_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* Prefixes the current message with "what: " (e.g. a file name) and returns -1. */
+int gv_fail_context(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+const char *gv_last_error(void);
+void gv_clear_error(void);
+
+/* ---- Logging ------------------------------------------------------------------------ */
+enum { GV_LOG_QUIET = 0, GV_LOG_INFO = 1, GV_LOG_DEBUG = 2 };
+void gv_log_set_level(int level);
+int gv_log_level(void);
+/* Informational line on stderr; silent under --quiet. */
+void gv_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+void gv_debug(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* Warning line on stderr; always shown. */
+void gv_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
+/* ---- Time --------------------------------------------------------------------------- */
+double gv_now(void); /* monotonic seconds */
+
+/* ---- Progress bar -------------------------------------------------------------------
+ * On a terminal: one line redrawn in place with count, rate and ETA. Otherwise: a plain
+ * line every few seconds. Nothing at all under --quiet. */
+typedef struct {
+    char label[48];
+    long total;
+    long done;
+    double start, last_draw;
+    int on_terminal;
+    int enabled;
+} gv_progress;
+void gv_progress_start(gv_progress *p, const char *label, long total);
+/* Sets the count to `done`; `extra` (printf format, may be NULL) is shown after the bar. */
+void gv_progress_update(gv_progress *p, long done, const char *extra, ...)
+    __attribute__((format(printf, 3, 4)));
+void gv_progress_finish(gv_progress *p);
+
+/* ---- Files -------------------------------------------------------------------------- */
+/* Reads a whole file; *data is NUL-terminated and must be freed. */
+int gv_read_file(const char *path, char **data, size_t *size);
+int gv_file_exists(const char *path);
+int gv_dir_exists(const char *path);
+/* Creates a directory and its parents (like mkdir -p). */
+int gv_mkdirs(const char *path);
+/* Joins two path parts with one '/' into out (size bytes); fails if it does not fit. */
+int gv_path_join(char *out, size_t size, const char *a, const char *b);
+
+/* A file written under a temporary name in the same folder and renamed on commit, so that
+ * a reader never sees it half-written. */
+typedef struct {
+    FILE *f;
+    char path[4096];
+    char tmp_path[4096 + 32];
+} gv_atomic_file;
+int gv_atomic_open(gv_atomic_file *af, const char *path);
+/* Flushes, closes and renames into place; on any write error removes the temporary. */
+int gv_atomic_commit(gv_atomic_file *af);
+void gv_atomic_abort(gv_atomic_file *af);
+
+/* ---- Command-line flags -------------------------------------------------------------
+ * Every subcommand declares its flags in a table; the parser handles --help, --quiet and
+ * --threads for all of them, so flags look and behave the same everywhere. */
+typedef enum { GV_FLAG_BOOL, GV_FLAG_INT, GV_FLAG_DOUBLE, GV_FLAG_STRING } gv_flag_type;
+typedef struct {
+    const char *name;   /* without the leading "--" */
+    gv_flag_type type;
+    void *value;        /* int*, int*, double*, const char** */
+    const char *meta;   /* value placeholder for the help, e.g. "DIR" */
+    const char *help;
+    int required;
+} gv_flag;
+typedef struct {
+    const char *command;     /* e.g. "scene info" */
+    const char *positional;  /* e.g. "DIR" or NULL when none is accepted */
+    const char *summary;     /* one line */
+    const char *details;     /* more text for --help, or NULL */
+    const gv_flag *flags;
+    int n_flags;
+    int min_positional, max_positional;
+} gv_command_spec;
+enum { GV_ARGS_OK = 0, GV_ARGS_HELP = 1, GV_ARGS_ERROR = 2 };
+/* Parses argv (argv[0] is the command name). Positional arguments are returned in
+ * positional[0..*n_positional). Returns GV_ARGS_OK, GV_ARGS_HELP (help was printed) or
+ * GV_ARGS_ERROR (a usage message was printed). */
+int gv_args_parse(const gv_command_spec *spec, int argc, char **argv,
+                  char **positional, int *n_positional);
+/* Exit code of a command from the parser's result: 0 after help, 2 after a usage error. */
+int gv_args_exit_code(int parse_result);
+void gv_print_help(const gv_command_spec *spec, FILE *out);
+
+/* ---- Random numbers ------------------------------------------------------------------
+ * Philox-4x32-10 (Salmon et al. 2011): the n-th number of stream `seed` is a pure function
+ * of (seed, n), so parallel loops give the same numbers whatever the thread count. */
+typedef struct {
+    uint64_t seed;
+    uint64_t counter;   /* index of the next block of four 32-bit words */
+    uint32_t block[4];
+    int used;           /* words of block already consumed (4 = empty) */
+} gv_rng;
+void gv_philox4x32(uint64_t seed, uint64_t counter, uint32_t out[4]);
+void gv_rng_init(gv_rng *r, uint64_t seed);
+uint32_t gv_rng_u32(gv_rng *r);
+double gv_rng_uniform(gv_rng *r);           /* in [0, 1) */
+double gv_rng_normal(gv_rng *r);            /* standard normal (Box-Muller) */
+/* Stateless forms: the value at position `index` of stream `seed`. */
+double gv_uniform_at(uint64_t seed, uint64_t index);
+double gv_normal_at(uint64_t seed, uint64_t index);
+
+#endif

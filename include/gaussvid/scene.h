@@ -1,0 +1,63 @@
+/* A scene: the cameras and images of a multi-view capture, its sparse point cloud, and the
+ * sparse split into training frames 0, n, 2n, ... and held-out frames.
+ *
+ * Camera convention (everywhere in the library): OpenCV/COLMAP, x right, y down, z forward;
+ * a pose is world-to-camera, X_cam = R X_world + t; intrinsics in pixels with the principal
+ * point in continuous coordinates (pixel (i, j) has its centre at (i + 0.5, j + 0.5)). */
+#ifndef GAUSSVID_SCENE_H
+#define GAUSSVID_SCENE_H
+
+#include <stdint.h>
+
+#include "gaussvid/image.h"
+
+typedef struct {
+    int width, height;
+    double fx, fy, cx, cy;
+    double R[9];          /* world-to-camera rotation, row-major */
+    double t[3];          /* world-to-camera translation */
+    char name[256];       /* image file name relative to the scene's image folder */
+} gv_camera;
+
+typedef enum { GV_SCENE_FROM_COLMAP_BIN, GV_SCENE_FROM_COLMAP_TEXT, GV_SCENE_FROM_TRANSFORMS } gv_scene_source;
+
+typedef struct {
+    char dir[4096];
+    char image_dir[4096]; /* images/ or images_<k>/ when downscaled */
+    gv_scene_source source;
+    int downscale;        /* 1, 2, 4, 8: intrinsics already scaled to it */
+    int n_frames;
+    gv_camera *cameras;   /* n_frames, sorted by image name */
+    int n_points;
+    float *points;        /* n_points * 3, world coordinates */
+    uint8_t *colors;      /* n_points * 3, RGB */
+} gv_scene;
+
+typedef struct {
+    int downscale;        /* 1 (default), 2, 4, 8: read images_<k>/ (made on demand if absent) */
+    int prefer_transforms; /* read transforms.json even when sparse/0 exists */
+} gv_scene_options;
+
+/* Loads cameras and points: sparse/0 (binary, else text) when present, else transforms.json.
+ * Every camera's image must exist. opt may be NULL for the defaults. */
+int gv_scene_load(const char *dir, const gv_scene_options *opt, gv_scene *out);
+void gv_scene_free(gv_scene *scene);
+/* Reads frame i's image as RGB, checking its size against the camera. */
+int gv_scene_load_image(const gv_scene *scene, int frame, gv_image *out);
+/* Camera centre in world coordinates: C = -R^T t. */
+void gv_camera_center(const gv_camera *cam, double center[3]);
+/* The 3DGS scene extent: 1.1 x the largest distance of a camera centre from their mean. */
+double gv_scene_extent(const gv_scene *scene);
+
+/* Sparse split for interval n: training frames 0, n, 2n, ...; every other frame held out.
+ * Fills the arrays (each n_frames long) and counts; fails when n < 1 or when fewer than two
+ * training frames result. */
+int gv_scene_split(int n_frames, int interval, int *train, int *n_train, int *held_out,
+                   int *n_held_out);
+
+/* Writes the scene's description (not its images) in the shared folder format:
+ * transforms.json (nerfstudio, OpenGL c2w), sparse/0/{cameras,images,points3D}.txt
+ * (PINHOLE) and points3D.ply. Image names are those of the cameras under images/. */
+int gv_scene_write(const char *dir, const gv_scene *scene);
+
+#endif

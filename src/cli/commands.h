@@ -1,0 +1,25 @@
+/* The subcommands of the gaussvid program. Each takes argv with argv[0] = its own name and
+ * returns the process exit code: 0 success, 1 failure, 2 usage error. */
+#ifndef GAUSSVID_CLI_COMMANDS_H
+#define GAUSSVID_CLI_COMMANDS_H
+
+typedef struct {
+    const char *name;
+    int (*run)(int argc, char **argv);
+    const char *summary;
+} gv_subcommand;
+
+/* Runs the entry of `table` named by argv[1] (argv[0] is the group's name, e.g. "scene"),
+ * or prints the group's help. */
+int gv_run_subcommand(const char *group, const gv_subcommand *table, int n, int argc, char **argv);
+/* Prints "gaussvid: <last error>" and returns 1. */
+int gv_report_failure(void);
+
+int cmd_metrics(int argc, char **argv);
+int cmd_scene(int argc, char **argv);
+int cmd_scene_info(int argc, char **argv);
+int cmd_scene_synth(int argc, char **argv);
+int cmd_splat(int argc, char **argv);
+int cmd_splat_export(int argc, char **argv);
+
+#endif

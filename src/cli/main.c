@@ -1,0 +1,56 @@
+/* gaussvid: one program, one subcommand per stage of the pipeline. */
+#include <stdio.h>
+#include <string.h>
+
+#include "cli/commands.h"
+#include "gaussvid/core.h"
+
+#define GAUSSVID_VERSION "0.1.0"
+
+static const gv_subcommand commands[] = {
+    {"scene", cmd_scene, "scenes: validate and describe (info), synthesise (synth)"},
+    {"splat", cmd_splat, "3D Gaussian Splatting models: export to .splat"},
+    {"metrics", cmd_metrics, "PSNR and SSIM of two images, as the 3DGS evaluation computes them"},
+};
+static const int n_commands = sizeof commands / sizeof commands[0];
+
+static void print_usage(FILE *out)
+{
+    fprintf(out,
+            "gaussvid %s: sparse-view 3D Gaussian Splatting restored by a 3D-aware video "
+            "diffusion transformer\n\nusage: gaussvid COMMAND [options]\n\ncommands:\n",
+            GAUSSVID_VERSION);
+    for (int i = 0; i < n_commands; i++)
+        fprintf(out, "  %-10s %s\n", commands[i].name, commands[i].summary);
+    fprintf(out, "  %-10s %s\n", "help", "this list; 'gaussvid COMMAND --help' for one command");
+    fprintf(out, "  %-10s %s\n", "version", "print the version");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        print_usage(stderr);
+        return 2;
+    }
+    const char *name = argv[1];
+    if (!strcmp(name, "help") || !strcmp(name, "--help") || !strcmp(name, "-h")) {
+        if (argc > 2) {
+            for (int i = 0; i < n_commands; i++) {
+                if (!strcmp(argv[2], commands[i].name)) {
+                    char *help_argv[] = {argv[2], "--help", NULL};
+                    return commands[i].run(2, help_argv);
+                }
+            }
+        }
+        print_usage(stdout);
+        return 0;
+    }
+    if (!strcmp(name, "version") || !strcmp(name, "--version")) {
+        printf("gaussvid %s\n", GAUSSVID_VERSION);
+        return 0;
+    }
+    for (int i = 0; i < n_commands; i++)
+        if (!strcmp(name, commands[i].name)) return commands[i].run(argc - 1, argv + 1);
+    fprintf(stderr, "gaussvid: unknown command '%s' (see 'gaussvid help')\n", name);
+    return 2;
+}

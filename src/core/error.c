@@ -1,0 +1,40 @@
+/* Per-thread error message: one line naming the input and what is wrong. */
+#include "gaussvid/core.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+static _Thread_local char error_message[1024];
+
+int gv_fail(const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(error_message, sizeof error_message, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+int gv_fail_context(const char *fmt, ...)
+{
+    char prefix[512], previous[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(prefix, sizeof prefix, fmt, ap);
+    va_end(ap);
+    memcpy(previous, error_message, sizeof previous);
+    snprintf(error_message, sizeof error_message, "%s: %s", prefix,
+             previous[0] ? previous : "failed");
+    return -1;
+}
+
+const char *gv_last_error(void)
+{
+    return error_message[0] ? error_message : "unknown error";
+}
+
+void gv_clear_error(void)
+{
+    error_message[0] = '\0';
+}

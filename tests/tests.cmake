@@ -1,0 +1,22 @@
+# Every tests/test_*.c is one unit-test program (label "unit", also run under the
+# sanitizers); every tests/cli/*.sh drives the gaussvid program (label "cli").
+set(GV_SHARED_DATA ${CMAKE_SOURCE_DIR}/../shared/data)
+
+file(GLOB GV_UNIT_TESTS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/test_*.c)
+foreach(src ${GV_UNIT_TESTS})
+  get_filename_component(name ${src} NAME_WE)
+  add_executable(${name} ${src})
+  target_include_directories(${name} PRIVATE ${CMAKE_SOURCE_DIR}/src ${CMAKE_SOURCE_DIR}/tests)
+  target_link_libraries(${name} PRIVATE gaussvid_lib)
+  add_test(NAME ${name} COMMAND ${name})
+  set_tests_properties(${name} PROPERTIES LABELS unit
+    ENVIRONMENT "GV_SHARED_DATA=${GV_SHARED_DATA};GV_TMP=${CMAKE_BINARY_DIR}/test-tmp/${name}")
+endforeach()
+
+file(GLOB GV_CLI_TESTS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/cli/*.sh)
+foreach(script ${GV_CLI_TESTS})
+  get_filename_component(name ${script} NAME_WE)
+  add_test(NAME cli_${name} COMMAND bash ${script} $<TARGET_FILE:gaussvid>)
+  set_tests_properties(cli_${name} PROPERTIES LABELS cli
+    ENVIRONMENT "GV_SHARED_DATA=${GV_SHARED_DATA};GV_TMP=${CMAKE_BINARY_DIR}/test-tmp/cli_${name}")
+endforeach()
