@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static int check_passed, check_failed;
 
@@ -47,7 +48,8 @@ static inline const char *check_tmp_dir(void)
 {
     static char dir[4096];
     const char *base = getenv("GV_TMP");
-    snprintf(dir, sizeof dir, "%s", base ? base : "/tmp/gaussvid-test");
+    if (base) snprintf(dir, sizeof dir, "%s", base);
+    else snprintf(dir, sizeof dir, "/tmp/gaussvid-test-%ld", (long)getpid());
     char command[4200];
     snprintf(command, sizeof command, "rm -rf '%s' && mkdir -p '%s'", dir, dir);
     if (system(command) != 0) { fprintf(stderr, "cannot create %s\n", dir); exit(1); }

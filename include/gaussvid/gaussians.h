@@ -21,6 +21,9 @@ int gv_sh_coefficient_count(int degree);
 int gv_gaussians_alloc(gv_gaussians *g, int n, int sh_degree);
 /* Grows the capacity to at least `capacity`, keeping the contents. */
 int gv_gaussians_reserve(gv_gaussians *g, int capacity);
+/* Frees the arrays and zeroes the struct. */
 void gv_gaussians_free(gv_gaussians *g);
+/* Fails naming `what` and the first Gaussian with a NaN or infinite parameter. */
+int gv_gaussians_check_finite(const gv_gaussians *g, const char *what);
 
 #endif
