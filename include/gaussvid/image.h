@@ -1,5 +1,10 @@
-/* 8-bit images: PNG (grey, grey+alpha, RGB, RGBA; 8 and 16 bit are read as 8-bit) and JPEG
- * read, PNG written atomically. Pixels are row-major, channels interleaved (HWC). */
+/* 8-bit images: PNG (grey, grey+alpha, RGB, RGBA, palette; 8 and 16 bit are read as 8-bit)
+ * and JPEG read, PNG written atomically. Pixels are row-major, channels interleaved (HWC).
+ *
+ * Reading: 16-bit samples keep their high byte (v >> 8), as PIL and OpenCV do; palette
+ * images become RGB (RGBA when the palette has transparency); grey below 8 bits is expanded
+ * to 8 bits. A JPEG with corrupt data (any libjpeg warning, e.g. a premature end) is
+ * refused rather than returned with grey blocks. Every failure is one line naming the file. */
 #ifndef GAUSSVID_IMAGE_H
 #define GAUSSVID_IMAGE_H
 
@@ -14,13 +19,30 @@ typedef struct {
 int gv_image_read(const char *path, gv_image *out);
 /* Reads and converts to 3-channel RGB (grey is replicated; alpha is dropped). */
 int gv_image_read_rgb(const char *path, gv_image *out);
+/* Reads a PNG (1..4 channels out). */
+int gv_image_read_png(const char *path, gv_image *out);
+/* Reads a baseline or progressive JPEG (1 channel for greyscale, else 3; CMYK refused). */
+int gv_image_read_jpeg(const char *path, gv_image *out);
+/* Writes an 8-bit PNG with the image's channel count, under a temporary name renamed
+ * into place. */
 int gv_image_write_png(const char *path, const gv_image *img);
+/* Allocates zeroed pixels; fails on a non-positive size, channels outside 1..4 or a size
+ * above 2^31 bytes. */
 int gv_image_alloc(gv_image *img, int width, int height, int channels);
 void gv_image_free(gv_image *img);
-/* Converts to float in [0, 1], HWC, same channel count; out holds w*h*c floats. */
+/* New 3-channel copy: grey is replicated, alpha is dropped (no compositing). */
+int gv_image_to_rgb(const gv_image *in, gv_image *out);
+/* Converts to float in [0, 1], HWC, same channel count; out holds w*h*c floats. As
+ * torchvision's to_tensor: v / 255 in float32. */
 void gv_image_to_float(const gv_image *img, float *out);
 /* Converts float HWC in [0, 1] to 8 bits as torchvision's save_image does:
- * clamp(x * 255 + 0.5, 0, 255) truncated. */
+ * clamp(x * 255 + 0.5, 0, 255) truncated (float32 arithmetic; NaN gives 0). */
 void gv_image_from_float(gv_image *img, const float *in);
+/* Area-average (box filter) downscale by an integer factor k >= 1. The output size is
+ * (round(W/k), round(H/k)) with Python's round (half to even, as 3DGS loadCam computes it),
+ * at least 1. Each output pixel is the exact area-weighted mean of the source region it
+ * covers (a W/W' by H/H' rectangle, fractional pixels weighted by their overlap), rounded to
+ * nearest (halves up); when k divides the size this is the mean of a k x k block. */
+int gv_image_downscale(const gv_image *in, int factor, gv_image *out);
 
 #endif
