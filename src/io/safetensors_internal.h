@@ -1,0 +1,19 @@
+/* safetensors internals shared by the reader's files. Internal to src/io. */
+#ifndef GAUSSVID_IO_SAFETENSORS_INTERNAL_H
+#define GAUSSVID_IO_SAFETENSORS_INTERNAL_H
+
+#include <stddef.h>
+
+#include "gaussvid/safetensors.h"
+
+/* Parses and checks the header JSON `text` (n bytes, text[n] == '\0') of f->path, whose data
+ * region holds f->data_size bytes; fills f's tensors (sorted by offset, data pointers unset),
+ * name index and metadata. On failure records one message; gv_st_close frees what was set. */
+int gv_st_parse_header(gv_st_file *f, const char *text, size_t n);
+/* Whether the n bytes at s are valid UTF-8 (no overlong forms, surrogates or values above
+ * U+10FFFF): the reference decodes headers as UTF-8 and refuses anything else. */
+int gv_st_utf8_valid(const char *s, size_t n);
+/* Fails, naming `path` and `what` (e.g. "metadata key"), when two of the n strings are equal. */
+int gv_st_check_unique(const char *path, const char *what, const char **strings, int n);
+
+#endif
