@@ -21,5 +21,6 @@ int cmd_scene_info(int argc, char **argv);
 int cmd_scene_synth(int argc, char **argv);
 int cmd_splat(int argc, char **argv);
 int cmd_splat_export(int argc, char **argv);
+int cmd_st(int argc, char **argv);
 
 #endif
