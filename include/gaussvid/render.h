@@ -1,0 +1,47 @@
+/* Rendering a set of Gaussians from a camera, and the gradients of a loss on the image with
+ * respect to every raw parameter: the calls the trainer makes (docs/SPLAT.md). The
+ * renderer keeps the buffers of the last forward for the backward and reuses them. */
+#ifndef GAUSSVID_RENDER_H
+#define GAUSSVID_RENDER_H
+
+#include <stdint.h>
+
+#include "gaussvid/gaussians.h"
+#include "gaussvid/splat.h"
+
+typedef struct {
+    /* of the last forward */
+    int n, sh_degree, active_degree;
+    gv_splat_view view;
+    float bg[3];
+    /* per Gaussian (capacity rows): projected and activated */
+    float *means2d, *conics, *depths, *colors, *opacities;
+    int *radii;             /* pixels, 0 = not visible in this view */
+    uint8_t *clamped;       /* colour channels clamped at 0 */
+    float *d_means2d, *d_conics, *d_colors, *d_opacities;
+    int capacity;
+    /* visible Gaussians (radius > 0): tiles.visible[0 .. tiles.n_visible), ascending */
+    gv_splat_tiles tiles;
+    /* per pixel */
+    float *final_T;         /* transmittance left after the last Gaussian (1 - alpha) */
+    int *n_contrib;
+    int pixel_capacity;
+} gv_splat_renderer;
+
+/* Renders g (SH up to active_degree) from view over background bg into image (float HWC,
+ * width * height * 3). r starts zeroed ({0}) and is reused across calls. Fails on an SH
+ * degree out of range or when memory runs out. */
+int gv_splat_render_forward(gv_splat_renderer *r, const gv_gaussians *g,
+                            const gv_splat_view *view, int active_degree, const float bg[3],
+                            float *image);
+/* From d_image = dL/dimage (HWC) of the last forward of the same g, writes grad (same SH
+ * degree, capacity >= g->n) for the visible Gaussians only: dL/d means, sh (zero above the
+ * active degree), opacity logits, log-scales and raw quaternions; rows of Gaussians not
+ * visible are left untouched. densify_grad (may be NULL) receives, for the visible
+ * Gaussians, the 3DGS densification statistic of this view: the norm of dL/d means2d in
+ * NDC units, |(dL/dx * W/2, dL/dy * H/2)| (reference doc section 14.1). */
+int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
+                             const float *d_image, gv_gaussians *grad, float *densify_grad);
+void gv_splat_renderer_free(gv_splat_renderer *r);
+
+#endif

@@ -1,0 +1,331 @@
+/* Tile rasteriser: front-to-back alpha blending and its backward (reference doc sections 9
+ * and 10.1; [RAST] forward.cu / backward.cu renderCUDA).
+ *
+ * Each tile is rendered by one thread, Gaussian by Gaussian in the tile's depth order, eight
+ * pixels of a row at a time (simd8.h); the reference runs one GPU thread per pixel over the
+ * same list. Every pixel goes through the reference's sequence of operations, so the
+ * result is the reference's; the order only lets a Gaussian skip the pixels where its alpha
+ * cannot reach 1/255: with power = -d^T K d / 2 and alpha = o exp(power), alpha >= 1/255
+ * needs d^T K d <= 2 ln(255 o), an ellipse whose bounding box is |dx| <= sqrt(2 ln(255 o)
+ * Sigma_xx) (and the same in y), Sigma = K^-1. The box is widened (ln + 0.1, + 0.01 px) so
+ * that float rounding never drops a pixel the reference would blend; pixels of the box's
+ * 8-pixel groups outside it are evaluated too, which is harmless (alpha < 1/255 there).
+ * exp is f8_exp_neg, the same function in the forward and the backward, so both take the
+ * same decisions.
+ *
+ * The backward walks each tile's list back to front with the per-pixel state of the
+ * reference (T, accumulated colour behind, last alpha and colour) and writes one gradient
+ * row per (tile, Gaussian) entry; the rows are then summed per Gaussian in a fixed order.
+ * No atomics, and the result does not depend on the number of threads. */
+#include <math.h>
+#include <string.h>
+
+#include "gaussvid/splat.h"
+#include "splat/simd8.h"
+
+enum { TILE_PIXELS = GV_SPLAT_TILE * GV_SPLAT_TILE, GRAD_WIDTH = 9, SPLAT_WIDTH = 12 };
+
+/* Packs the 2D data of each visible Gaussian by depth rank (the order in which the tiles
+ * read them): mean, conic, opacity, colour and the half extents of its alpha box. */
+static void pack_splats(const gv_splat_tiles *t, const float *means2d, const float *conics,
+                        const float *colors, const float *opacities)
+{
+#pragma omp parallel for schedule(static)
+    for (int k = 0; k < t->n_visible; k++) {
+        int g = t->depth_order[k];
+        float *s = t->splats + (size_t)k * SPLAT_WIDTH;
+        float A = conics[3 * g], B = conics[3 * g + 1], C = conics[3 * g + 2], o = opacities[g];
+        s[0] = means2d[2 * g], s[1] = means2d[2 * g + 1];
+        s[2] = A, s[3] = B, s[4] = C, s[5] = o;
+        s[6] = colors[3 * g], s[7] = colors[3 * g + 1], s[8] = colors[3 * g + 2];
+        float det = A * C - B * B;
+        s[11] = 0;
+        if (!(o >= GV_SPLAT_ALPHA_MIN)) {
+            /* o exp(power) <= o: below 1/255 it is skipped everywhere (exactly, in float) */
+            s[9] = s[10] = -1;
+        } else if (!(det > 0) || !(A > 0)) {
+            s[9] = s[10] = INFINITY; /* degenerate in float: the whole rectangle */
+        } else {
+            float level = 2.0f * (logf(255.0f * o) + 0.1f);
+            s[9] = sqrtf(level * C / det) + 0.01f;
+            s[10] = sqrtf(level * A / det) + 0.01f;
+        }
+    }
+}
+
+/* One Gaussian as a tile sees it. */
+typedef struct {
+    float mx, my, A, B, C, o, col[3];
+    int x0, x1, y0, y1; /* pixel box inside the tile, inclusive; x0 is a multiple of 8 */
+} splat2d;
+
+/* floor(v) and ceil(v) as ints, clamped to [-1, limit] first (no libm calls: this runs for
+ * every entry of every tile). */
+static inline int floor_bound(float v, int limit)
+{
+    v = v > -1.0f ? v : -1.0f; /* also maps NaN to -1 */
+    v = v < (float)limit ? v : (float)limit;
+    int i = (int)v;
+    return (float)i > v ? i - 1 : i;
+}
+
+static inline int ceil_bound(float v, int limit)
+{
+    v = v > -1.0f ? v : -1.0f;
+    v = v < (float)limit ? v : (float)limit;
+    int i = (int)v;
+    return (float)i < v ? i + 1 : i;
+}
+
+/* Returns 0 when the Gaussian's alpha box misses the tile. */
+SIMD8_INLINE int load_splat(splat2d *s, const float *p, int px0, int py0, int tw, int th)
+{
+    if (p[9] < 0) return 0;
+    /* Pixel x has its centre at px0 + x + 0.5. */
+    int x0 = ceil_bound(p[0] - p[9] - 0.5f - (float)px0, tw);
+    int x1 = floor_bound(p[0] + p[9] - 0.5f - (float)px0, tw);
+    int y0 = ceil_bound(p[1] - p[10] - 0.5f - (float)py0, th);
+    int y1 = floor_bound(p[1] + p[10] - 0.5f - (float)py0, th);
+    s->x0 = x0 < 0 ? 0 : x0;
+    s->y0 = y0 < 0 ? 0 : y0;
+    s->x1 = x1 > tw - 1 ? tw - 1 : x1;
+    s->y1 = y1 > th - 1 ? th - 1 : y1;
+    if (s->x0 > s->x1 || s->y0 > s->y1) return 0;
+    s->x0 &= ~7; /* whole groups of eight pixels */
+    s->mx = p[0], s->my = p[1], s->A = p[2], s->B = p[3], s->C = p[4], s->o = p[5];
+    s->col[0] = p[6], s->col[1] = p[7], s->col[2] = p[8];
+    return 1;
+}
+
+/* Pixel centre offsets of the eight lanes. */
+static const f8 LANE_CENTRES = {0.5f, 1.5f, 2.5f, 3.5f, 4.5f, 5.5f, 6.5f, 7.5f};
+
+/* power = -0.5 (A dx^2 + C dy^2) - B dx dy for eight pixels of a row, in the reference's
+ * order of operations (C dy dy is the same for the row). */
+SIMD8_INLINE f8 splat_power(const splat2d *s, f8 dx, float dy, float cdd)
+{
+    return -0.5f * (s->A * dx * dx + cdd) - s->B * dx * dy;
+}
+
+/* alpha = min(0.99, o exp(power)) */
+SIMD8_INLINE f8 splat_alpha(const splat2d *s, f8 power, f8 *G)
+{
+    *G = f8_exp_neg(f8_min(power, f8_splat(0.0f)));
+    return f8_min(s->o * *G, f8_splat(GV_SPLAT_ALPHA_MAX));
+}
+
+/* Per-pixel state of the forward blend. */
+typedef struct {
+    float T[TILE_PIXELS], C[3][TILE_PIXELS];
+    int32_t last[TILE_PIXELS], live[TILE_PIXELS];
+    int row_live[GV_SPLAT_TILE]; /* live pixels per row */
+} blend_state;
+
+/* Blends one Gaussian into the live pixels of its box; returns the number of pixels that
+ * stopped (their next transmittance would fall below 1e-4). */
+SIMD8_INLINE int blend_splat(blend_state *st, const splat2d *s, int j, int px0, int py0)
+{
+    int stopped = 0;
+    i8 contributor = {j + 1, j + 1, j + 1, j + 1, j + 1, j + 1, j + 1, j + 1};
+    for (int y = s->y0; y <= s->y1; y++) {
+        if (st->row_live[y] == 0) continue;
+        float dy = s->my - ((float)(py0 + y) + 0.5f), cdd = s->C * dy * dy;
+        i8 stops = {0, 0, 0, 0, 0, 0, 0, 0};
+        for (int x = s->x0; x <= s->x1; x += 8) {
+            int p = y * GV_SPLAT_TILE + x;
+            i8 live = i8_load(st->live + p);
+            f8 dx = s->mx - (f8_splat((float)(px0 + x)) + LANE_CENTRES), G;
+            f8 power = splat_power(s, dx, dy, cdd);
+            f8 alpha = splat_alpha(s, power, &G);
+            i8 ok = live & (power <= 0.0f) & (alpha >= GV_SPLAT_ALPHA_MIN);
+            f8 T = f8_load(st->T + p), test_T = T * (1.0f - alpha);
+            i8 stop = ok & (test_T < GV_SPLAT_T_MIN); /* this Gaussian is not blended */
+            i8 blend = ok & ~stop;
+            f8 w = f8_mask(blend, alpha);
+            for (int c = 0; c < 3; c++)
+                f8_store(st->C[c] + p, f8_load(st->C[c] + p) + s->col[c] * w * T);
+            f8_store(st->T + p, f8_select(blend, test_T, T));
+            i8_store(st->last + p, i8_select(blend, contributor, i8_load(st->last + p)));
+            i8_store(st->live + p, live & ~stop);
+            stops += stop;
+        }
+        int n = i8_count(stops);
+        st->row_live[y] -= n;
+        stopped += n;
+    }
+    return stopped;
+}
+
+SIMD8_CLONES static void render_tile(const gv_splat_tiles *t, int tile, int width, int height,
+                        const float bg[3], float *image, float *final_T, int *n_contrib)
+{
+    int px0 = (tile % t->tiles_x) * GV_SPLAT_TILE, py0 = (tile / t->tiles_x) * GV_SPLAT_TILE;
+    int tw = width - px0 < GV_SPLAT_TILE ? width - px0 : GV_SPLAT_TILE;
+    int th = height - py0 < GV_SPLAT_TILE ? height - py0 : GV_SPLAT_TILE;
+    blend_state st __attribute__((aligned(16)));
+    for (int p = 0; p < TILE_PIXELS; p++) {
+        st.T[p] = 1, st.C[0][p] = st.C[1][p] = st.C[2][p] = 0, st.last[p] = 0;
+        st.live[p] = (p % GV_SPLAT_TILE) < tw && (p / GV_SPLAT_TILE) < th ? -1 : 0;
+    }
+    for (int y = 0; y < GV_SPLAT_TILE; y++) st.row_live[y] = y < th ? tw : 0;
+    int n_live = tw * th;
+    int start = t->tile_offsets[tile], count = t->tile_offsets[tile + 1] - start;
+    const int *entries = t->entries + start;
+    for (int j = 0; j < count && n_live > 0; j++) {
+        splat2d s;
+        if (j + 8 < count) __builtin_prefetch(t->splats + (size_t)entries[j + 8] * SPLAT_WIDTH);
+        if (load_splat(&s, t->splats + (size_t)entries[j] * SPLAT_WIDTH, px0, py0, tw, th))
+            n_live -= blend_splat(&st, &s, j, px0, py0);
+    }
+    for (int y = 0; y < th; y++)
+        for (int x = 0; x < tw; x++) {
+            int p = y * GV_SPLAT_TILE + x;
+            size_t pix = (size_t)(py0 + y) * width + (px0 + x);
+            for (int c = 0; c < 3; c++) image[pix * 3 + c] = st.C[c][p] + st.T[p] * bg[c];
+            final_T[pix] = st.T[p];
+            n_contrib[pix] = st.last[p];
+        }
+}
+
+void gv_splat_rasterize_forward(const gv_splat_tiles *t, int width, int height,
+                                const float *means2d, const float *conics,
+                                const float *colors, const float *opacities,
+                                const float bg[3], float *image, float *final_T,
+                                int *n_contrib)
+{
+    int n_tiles = t->tiles_x * t->tiles_y;
+    pack_splats(t, means2d, conics, colors, opacities);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int tile = 0; tile < n_tiles; tile++)
+        render_tile(t, tile, width, height, bg, image, final_T, n_contrib);
+}
+
+/* Per-pixel state of the backward walk (reference renderCUDA backward). */
+typedef struct {
+    float T[TILE_PIXELS], T_final[TILE_PIXELS];
+    float accum[3][TILE_PIXELS], last_alpha[TILE_PIXELS], last_col[3][TILE_PIXELS];
+    float dpix[3][TILE_PIXELS], bg_dot[TILE_PIXELS];
+    int32_t n_contrib[TILE_PIXELS];
+    int row_contrib[GV_SPLAT_TILE]; /* largest n_contrib of each row */
+} tile_state;
+
+/* Gradient row of one entry (position j of the tile list) from all the tile's pixels it
+ * was blended into: d means2d (2), d conic (3), d colour (3), d opacity. */
+SIMD8_INLINE void entry_backward(tile_state *st, const splat2d *s, int j, int px0, int py0,
+                           float row[GRAD_WIDTH])
+{
+    f8 zero = f8_splat(0.0f), g[GRAD_WIDTH];
+    for (int k = 0; k < GRAD_WIDTH; k++) g[k] = zero;
+    i8 jv = {j, j, j, j, j, j, j, j};
+    for (int y = s->y0; y <= s->y1; y++) {
+        if (j >= st->row_contrib[y]) continue;
+        float dy = s->my - ((float)(py0 + y) + 0.5f), cdd = s->C * dy * dy;
+        for (int x = s->x0; x <= s->x1; x += 8) {
+            int p = y * GV_SPLAT_TILE + x;
+            i8 m = jv < i8_load(st->n_contrib + p); /* this pixel blended entry j */
+            f8 dx = s->mx - (f8_splat((float)(px0 + x)) + LANE_CENTRES), G;
+            f8 power = splat_power(s, dx, dy, cdd);
+            f8 alpha = splat_alpha(s, power, &G);
+            m &= (power <= 0.0f) & (alpha >= GV_SPLAT_ALPHA_MIN);
+            if (!i8_any(m)) continue;
+            /* transmittance before this Gaussian */
+            f8 T = f8_load(st->T + p) / (1.0f - alpha);
+            f8_store(st->T + p, f8_select(m, T, f8_load(st->T + p)));
+            f8 dchannel_dcolor = alpha * T, dL_dalpha = zero;
+            f8 last_alpha = f8_load(st->last_alpha + p);
+            for (int c = 0; c < 3; c++) {
+                /* accum = colour behind this Gaussian, normalised by T after it */
+                f8 accum = last_alpha * f8_load(st->last_col[c] + p) +
+                           (1.0f - last_alpha) * f8_load(st->accum[c] + p);
+                f8_store(st->accum[c] + p, f8_select(m, accum, f8_load(st->accum[c] + p)));
+                f8_store(st->last_col[c] + p,
+                         f8_select(m, f8_splat(s->col[c]), f8_load(st->last_col[c] + p)));
+                f8 dpix = f8_load(st->dpix[c] + p);
+                dL_dalpha += (s->col[c] - accum) * dpix;
+                g[5 + c] += f8_mask(m, dchannel_dcolor * dpix);
+            }
+            dL_dalpha *= T;
+            f8_store(st->last_alpha + p, f8_select(m, alpha, last_alpha));
+            dL_dalpha += (-f8_load(st->T_final + p) / (1.0f - alpha)) * f8_load(st->bg_dot + p);
+            /* alpha = o G (the 0.99 clamp is ignored, as in 3DGS) */
+            f8 dL_dG = s->o * dL_dalpha;
+            f8 gdx = G * dx, gdy = G * dy;
+            f8 dG_ddelx = -gdx * s->A - gdy * s->B;
+            f8 dG_ddely = -gdy * s->C - gdx * s->B;
+            g[0] += f8_mask(m, dL_dG * dG_ddelx);
+            g[1] += f8_mask(m, dL_dG * dG_ddely);
+            g[2] += f8_mask(m, -0.5f * gdx * dx * dL_dG);
+            g[3] += f8_mask(m, -gdx * dy * dL_dG); /* B appears twice in d^T K d */
+            g[4] += f8_mask(m, -0.5f * gdy * dy * dL_dG);
+            g[8] += f8_mask(m, G * dL_dalpha);
+        }
+    }
+    for (int k = 0; k < GRAD_WIDTH; k++) row[k] = f8_sum(g[k]);
+}
+
+SIMD8_CLONES static void backward_tile(gv_splat_tiles *t, int tile, int width, int height,
+                          const float bg[3], const float *final_T, const int *n_contrib,
+                          const float *d_image)
+{
+    int px0 = (tile % t->tiles_x) * GV_SPLAT_TILE, py0 = (tile / t->tiles_x) * GV_SPLAT_TILE;
+    int tw = width - px0 < GV_SPLAT_TILE ? width - px0 : GV_SPLAT_TILE;
+    int th = height - py0 < GV_SPLAT_TILE ? height - py0 : GV_SPLAT_TILE;
+    tile_state st __attribute__((aligned(16)));
+    memset(&st, 0, sizeof st);
+    int max_contrib = 0;
+    for (int y = 0; y < th; y++)
+        for (int x = 0; x < tw; x++) {
+            int p = y * GV_SPLAT_TILE + x;
+            size_t pix = (size_t)(py0 + y) * width + (px0 + x);
+            st.T[p] = st.T_final[p] = final_T[pix];
+            st.n_contrib[p] = n_contrib[pix];
+            for (int c = 0; c < 3; c++) st.dpix[c][p] = d_image[pix * 3 + c];
+            st.bg_dot[p] = bg[0] * st.dpix[0][p] + bg[1] * st.dpix[1][p] + bg[2] * st.dpix[2][p];
+            if (st.n_contrib[p] > st.row_contrib[y]) st.row_contrib[y] = st.n_contrib[p];
+            if (st.n_contrib[p] > max_contrib) max_contrib = st.n_contrib[p];
+        }
+    int start = t->tile_offsets[tile], count = t->tile_offsets[tile + 1] - start;
+    float *rows = t->entry_grads + (size_t)start * GRAD_WIDTH;
+    memset(rows + (size_t)max_contrib * GRAD_WIDTH, 0,
+           (size_t)(count - max_contrib) * GRAD_WIDTH * sizeof(float));
+    const int *entries = t->entries + start;
+    for (int j = max_contrib - 1; j >= 0; j--) {
+        splat2d s;
+        float *row = rows + (size_t)j * GRAD_WIDTH;
+        if (j >= 8) __builtin_prefetch(t->splats + (size_t)entries[j - 8] * SPLAT_WIDTH);
+        if (load_splat(&s, t->splats + (size_t)entries[j] * SPLAT_WIDTH, px0, py0, tw, th))
+            entry_backward(&st, &s, j, px0, py0, row);
+        else
+            memset(row, 0, GRAD_WIDTH * sizeof(float));
+    }
+}
+
+void gv_splat_rasterize_backward(gv_splat_tiles *t, int width, int height,
+                                 const float *means2d, const float *conics,
+                                 const float *colors, const float *opacities,
+                                 const float bg[3], const float *final_T,
+                                 const int *n_contrib, const float *d_image,
+                                 float *d_means2d, float *d_conics, float *d_colors,
+                                 float *d_opacities)
+{
+    int n_tiles = t->tiles_x * t->tiles_y;
+    pack_splats(t, means2d, conics, colors, opacities);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int tile = 0; tile < n_tiles; tile++)
+        backward_tile(t, tile, width, height, bg, final_T, n_contrib, d_image);
+
+    /* Sum each Gaussian's entry rows, always in the same order. */
+#pragma omp parallel for schedule(static)
+    for (int k = 0; k < t->n_visible; k++) {
+        size_t g = (size_t)t->depth_order[k];
+        float sum[GRAD_WIDTH] = {0};
+        for (int e = t->gauss_offsets[k]; e < t->gauss_offsets[k + 1]; e++) {
+            const float *row = t->entry_grads + (size_t)t->entry_of[e] * GRAD_WIDTH;
+            for (int i = 0; i < GRAD_WIDTH; i++) sum[i] += row[i];
+        }
+        d_means2d[2 * g] = sum[0], d_means2d[2 * g + 1] = sum[1];
+        for (int i = 0; i < 3; i++) d_conics[3 * g + i] = sum[2 + i];
+        for (int i = 0; i < 3; i++) d_colors[3 * g + i] = sum[5 + i];
+        d_opacities[g] = sum[8];
+    }
+}

@@ -1,0 +1,120 @@
+/* One call to render a view of a set of Gaussians, and one for its backward to the raw
+ * parameters: projection -> binning -> SH colour -> rasterisation, then back. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/core.h"
+#include "gaussvid/render.h"
+
+static int grow(void **array, size_t bytes)
+{
+    void *p = realloc(*array, bytes > 0 ? bytes : 1);
+    if (!p) return -1;
+    *array = p;
+    return 0;
+}
+
+static int ensure_capacity(gv_splat_renderer *r, int n, long pixels)
+{
+    if (n > r->capacity) {
+        size_t cap = (size_t)n + (size_t)n / 4 + 16, f = sizeof(float);
+        if (grow((void **)&r->means2d, cap * 2 * f) || grow((void **)&r->conics, cap * 3 * f) ||
+            grow((void **)&r->depths, cap * f) || grow((void **)&r->colors, cap * 3 * f) ||
+            grow((void **)&r->opacities, cap * f) || grow((void **)&r->radii, cap * sizeof(int)) ||
+            grow((void **)&r->clamped, cap) || grow((void **)&r->d_means2d, cap * 2 * f) ||
+            grow((void **)&r->d_conics, cap * 3 * f) || grow((void **)&r->d_colors, cap * 3 * f) ||
+            grow((void **)&r->d_opacities, cap * f))
+            return gv_fail("render: out of memory for %d Gaussians", n);
+        r->capacity = (int)cap;
+    }
+    if (pixels > r->pixel_capacity) {
+        if (grow((void **)&r->final_T, (size_t)pixels * sizeof(float)) ||
+            grow((void **)&r->n_contrib, (size_t)pixels * sizeof(int)))
+            return gv_fail("render: out of memory for %ld pixels", pixels);
+        r->pixel_capacity = (int)pixels;
+    }
+    return 0;
+}
+
+int gv_splat_render_forward(gv_splat_renderer *r, const gv_gaussians *g,
+                            const gv_splat_view *view, int active_degree, const float bg[3],
+                            float *image)
+{
+    if (g->sh_degree < 0 || g->sh_degree > 3 || active_degree < 0 ||
+        active_degree > g->sh_degree)
+        return gv_fail("render: active SH degree %d is not in 0..%d", active_degree,
+                       g->sh_degree);
+    if (g->n < 0) return gv_fail("render: negative Gaussian count %d", g->n);
+    if (view->width <= 0 || view->height <= 0)
+        return gv_fail("render: bad image size %dx%d", view->width, view->height);
+    long pixels = (long)view->width * view->height;
+    if (pixels > (long)1 << 30) return gv_fail("render: image of %ld pixels is too large", pixels);
+    if (ensure_capacity(r, g->n, pixels)) return -1;
+    r->n = g->n, r->sh_degree = g->sh_degree, r->active_degree = active_degree;
+    r->view = *view;
+    for (int c = 0; c < 3; c++) r->bg[c] = bg[c];
+
+    gv_splat_project_forward(g->n, g->means, g->scales, g->rotations, view, r->means2d,
+                             r->conics, r->depths, r->radii);
+    if (gv_splat_tiles_build(&r->tiles, g->n, view->width, view->height, r->means2d, r->radii,
+                             r->depths))
+        return -1;
+    int nv = r->tiles.n_visible;
+    const int *vis = r->tiles.visible;
+    gv_splat_sh_forward(nv, vis, g->sh_degree, active_degree, g->sh, g->means, view->campos,
+                        r->colors, r->clamped);
+#pragma omp parallel for schedule(static)
+    for (int k = 0; k < nv; k++) {
+        int i = vis[k];
+        r->opacities[i] = 1.0f / (1.0f + expf(-g->opacities[i])); /* sigmoid */
+    }
+    gv_splat_rasterize_forward(&r->tiles, view->width, view->height, r->means2d, r->conics,
+                               r->colors, r->opacities, bg, image, r->final_T, r->n_contrib);
+    return 0;
+}
+
+int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
+                             const float *d_image, gv_gaussians *grad, float *densify_grad)
+{
+    if (g->n != r->n || g->sh_degree != r->sh_degree)
+        return gv_fail("render: backward of %d Gaussians (SH degree %d) after a forward of %d "
+                       "(degree %d)", g->n, g->sh_degree, r->n, r->sh_degree);
+    if (grad->sh_degree != g->sh_degree || grad->capacity < g->n)
+        return gv_fail("render: gradient holds %d Gaussians of SH degree %d, need %d of degree "
+                       "%d", grad->capacity, grad->sh_degree, g->n, g->sh_degree);
+    const gv_splat_view *view = &r->view;
+    gv_splat_rasterize_backward(&r->tiles, view->width, view->height, r->means2d, r->conics,
+                                r->colors, r->opacities, r->bg, r->final_T, r->n_contrib,
+                                d_image, r->d_means2d, r->d_conics, r->d_colors,
+                                r->d_opacities);
+    int nv = r->tiles.n_visible;
+    const int *vis = r->tiles.visible;
+    float half_w = 0.5f * view->width, half_h = 0.5f * view->height;
+#pragma omp parallel for schedule(static)
+    for (int k = 0; k < nv; k++) {
+        int i = vis[k];
+        float o = r->opacities[i];
+        grad->opacities[i] = r->d_opacities[i] * o * (1.0f - o); /* through the sigmoid */
+        if (densify_grad) {
+            /* 3DGS accumulates the gradient w.r.t. NDC, i.e. pixels x (W/2, H/2). */
+            float gx = r->d_means2d[2 * i] * half_w, gy = r->d_means2d[2 * i + 1] * half_h;
+            densify_grad[i] = sqrtf(gx * gx + gy * gy);
+        }
+    }
+    gv_splat_project_backward(nv, vis, g->means, g->scales, g->rotations, view, r->d_means2d,
+                              r->d_conics, grad->means, grad->scales, grad->rotations);
+    gv_splat_sh_backward(nv, vis, g->sh_degree, r->active_degree, g->sh, g->means,
+                         view->campos, r->clamped, r->d_colors, grad->sh, grad->means);
+    return 0;
+}
+
+void gv_splat_renderer_free(gv_splat_renderer *r)
+{
+    free(r->means2d), free(r->conics), free(r->depths), free(r->colors), free(r->opacities);
+    free(r->radii), free(r->clamped);
+    free(r->d_means2d), free(r->d_conics), free(r->d_colors), free(r->d_opacities);
+    free(r->final_T), free(r->n_contrib);
+    gv_splat_tiles_free(&r->tiles);
+    memset(r, 0, sizeof *r);
+}
