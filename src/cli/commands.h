@@ -22,5 +22,6 @@ int cmd_scene_synth(int argc, char **argv);
 int cmd_splat(int argc, char **argv);
 int cmd_splat_export(int argc, char **argv);
 int cmd_st(int argc, char **argv);
+int cmd_model(int argc, char **argv);
 
 #endif

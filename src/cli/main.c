@@ -12,6 +12,7 @@ static const gv_subcommand commands[] = {
     {"splat", cmd_splat, "3D Gaussian Splatting models: export to .splat"},
     {"metrics", cmd_metrics, "PSNR and SSIM of two images, as the 3DGS evaluation computes them"},
     {"st", cmd_st, "safetensors files: check one and list its tensors and metadata (inspect)"},
+    {"model", cmd_model, "restoration network: parameter counts and weight checks (inspect)"},
 };
 static const int n_commands = sizeof commands / sizeof commands[0];
 
