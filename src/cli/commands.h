@@ -23,5 +23,6 @@ int cmd_splat(int argc, char **argv);
 int cmd_splat_export(int argc, char **argv);
 int cmd_st(int argc, char **argv);
 int cmd_model(int argc, char **argv);
+int cmd_bench(int argc, char **argv);
 
 #endif

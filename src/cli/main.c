@@ -13,6 +13,7 @@ static const gv_subcommand commands[] = {
     {"metrics", cmd_metrics, "PSNR and SSIM of two images, as the 3DGS evaluation computes them"},
     {"st", cmd_st, "safetensors files: check one and list its tensors and metadata (inspect)"},
     {"model", cmd_model, "restoration network: parameter counts and weight checks (inspect)"},
+    {"bench", cmd_bench, "benchmarks: tensor engine (nn)"},
 };
 static const int n_commands = sizeof commands / sizeof commands[0];
 
