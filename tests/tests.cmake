@@ -13,6 +13,19 @@ foreach(src ${GV_UNIT_TESTS})
     ENVIRONMENT "GV_SHARED_DATA=${GV_SHARED_DATA};GV_TMP=${CMAKE_BINARY_DIR}/test-tmp/${name}")
 endforeach()
 
+# Every tests/itest_*.c is an integration-test program (label "integration": real training
+# runs, too slow for the sanitizer build, which runs only the label "unit").
+file(GLOB GV_INTEGRATION_TESTS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/itest_*.c)
+foreach(src ${GV_INTEGRATION_TESTS})
+  get_filename_component(name ${src} NAME_WE)
+  add_executable(${name} ${src})
+  target_include_directories(${name} PRIVATE ${CMAKE_SOURCE_DIR}/src ${CMAKE_SOURCE_DIR}/tests)
+  target_link_libraries(${name} PRIVATE gaussvid_lib)
+  add_test(NAME ${name} COMMAND ${name})
+  set_tests_properties(${name} PROPERTIES LABELS integration
+    ENVIRONMENT "GV_SHARED_DATA=${GV_SHARED_DATA};GV_TMP=${CMAKE_BINARY_DIR}/test-tmp/${name}")
+endforeach()
+
 file(GLOB GV_CLI_TESTS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/cli/*.sh)
 foreach(script ${GV_CLI_TESTS})
   get_filename_component(name ${script} NAME_WE)

@@ -34,11 +34,15 @@ static int cmd_bench_all(int argc, char **argv)
     const gv_command_spec spec = {"bench all", NULL, "run every benchmark (tables)", NULL, &f, 1, 0, 0};
     int rc = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (rc != GV_ARGS_OK) return gv_args_exit_code(rc);
-    return gv_bench_nn(&o, stdout) == 0 ? 0 : gv_report_failure();
+    if (gv_bench_nn(&o, stdout) != 0) return gv_report_failure();
+    gv_bench_splat_options so = {.interval = 6, .iterations = o.quick ? 300 : 8000,
+                                 .checkpoint_every = o.quick ? 100 : 1000};
+    return gv_bench_splat(&so, stdout) == 0 ? 0 : gv_report_failure();
 }
 
 static const gv_subcommand bench_commands[] = {
     {"nn", cmd_bench_nn, "tensor engine: linear vs sgemm, attention, transformer block"},
+    {"splat", gv_bench_splat_command, "sparse-view 3DGS training: phases, kernel stages, quality"},
     {"all", cmd_bench_all, "every benchmark above, as tables"},
 };
 

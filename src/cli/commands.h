@@ -16,13 +16,24 @@ int gv_run_subcommand(const char *group, const gv_subcommand *table, int n, int 
 int gv_report_failure(void);
 
 int cmd_metrics(int argc, char **argv);
+int cmd_model(int argc, char **argv);
+int cmd_model_run(int argc, char **argv);
 int cmd_scene(int argc, char **argv);
 int cmd_scene_info(int argc, char **argv);
 int cmd_scene_synth(int argc, char **argv);
 int cmd_splat(int argc, char **argv);
 int cmd_splat_export(int argc, char **argv);
+int cmd_splat_train(int argc, char **argv);
+int cmd_splat_render(int argc, char **argv);
+int cmd_splat_eval(int argc, char **argv);
 int cmd_st(int argc, char **argv);
-int cmd_model(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
+int cmd_dataset(int argc, char **argv);
+int cmd_dataset_build(int argc, char **argv);
+int cmd_dataset_stats(int argc, char **argv);
+int cmd_dataset_show(int argc, char **argv);
+int cmd_vae(int argc, char **argv);
+int cmd_vae_train(int argc, char **argv);
+int cmd_vae_eval(int argc, char **argv);
 
 #endif

@@ -1,0 +1,340 @@
+/* `gaussvid bench splat`: speed of sparse-view 3DGS training (DESIGN.md section 5).
+ * For each scene (the shared courtyard and livingroom by default), trains on every 6th frame
+ * for 8000 iterations as the dataset builder does and reports:
+ * - the median milliseconds per iteration of each phase of the loop (render forward, loss,
+ *   backward, densification, Adam) and the seconds for the whole run;
+ * - every 1000 iterations, the Gaussian count and the median time of each kernel stage on
+ *   the current model (projection, SH colour, binning and sort, rasteriser forward and
+ *   backward, projection and SH backward), run on their own;
+ * - the held-out and training-view PSNR / SSIM of the final model. */
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <cjson/cJSON.h>
+
+#include "bench/bench.h"
+#include "cli/commands.h"
+#include "gaussvid/core.h"
+#include "gaussvid/splat_train.h"
+
+enum { STAGE_PROJECT, STAGE_SH, STAGE_BINNING, STAGE_RASTER_FWD, STAGE_RASTER_BWD,
+       STAGE_PROJECT_SH_BWD, STAGES };
+static const char *stage_names[STAGES] = {"projection", "SH", "binning+sort", "raster fwd",
+                                          "raster bwd", "proj+SH bwd"};
+static const char *phase_names[GV_PHASES] = {"render", "loss", "backward", "densify", "adam"};
+
+typedef struct {
+    int iteration, gaussians, visible, entries;
+    double stage_ms[STAGES];
+} checkpoint;
+
+/* CPU seconds of the whole process (all threads): with the wall time it shows how busy
+ * the cores were, and on a shared machine it is the steadier measure of the work. */
+static double cpu_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+static int compare_doubles(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median(double *v, int n)
+{
+    if (n < 1) return NAN;
+    qsort(v, (size_t)n, sizeof *v, compare_doubles);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* Runs each kernel stage of one render and its backward on its own, `reps` times, on the
+ * trainer's current model and view 0; median milliseconds per stage. */
+static int time_stages(gv_splat_trainer *t, int reps, checkpoint *c)
+{
+    gv_splat_renderer *r = &t->renderer;
+    const gv_gaussians *g = &t->params;
+    const gv_splat_view *v = &t->views[0];
+    float bg[3] = {0, 0, 0};
+    /* A full forward first: buffers at the right size, and the loss gradient of this view. */
+    if (gv_splat_render_forward(r, g, v, t->active_degree, bg, t->render) != 0) return -1;
+    gv_image_to_float(&t->images[0], t->target);
+    for (size_t i = 0; i < (size_t)v->width * v->height * 3; i++)
+        t->d_render[i] = (t->render[i] > t->target[i] ? 1.0f : -1.0f) / (v->width * v->height);
+    double samples[STAGES][16];
+    for (int k = 0; k < reps; k++) {
+        double s0 = gv_now();
+        gv_splat_project_forward(g->n, g->means, g->scales, g->rotations, v, r->means2d,
+                                 r->conics, r->depths, r->radii);
+        double s1 = gv_now();
+        if (gv_splat_tiles_build(&r->tiles, g->n, v->width, v->height, r->means2d, r->radii,
+                                 r->depths) != 0)
+            return -1;
+        double s2 = gv_now();
+        gv_splat_sh_forward(r->tiles.n_visible, r->tiles.visible, g->sh_degree, t->active_degree,
+                            g->sh, g->means, v->campos, r->colors, r->clamped);
+        double s3 = gv_now();
+        gv_splat_rasterize_forward(&r->tiles, v->width, v->height, r->means2d, r->conics,
+                                   r->colors, r->opacities, bg, t->render, r->final_T,
+                                   r->n_contrib);
+        double s4 = gv_now();
+        gv_splat_rasterize_backward(&r->tiles, v->width, v->height, r->means2d, r->conics,
+                                    r->colors, r->opacities, bg, r->final_T, r->n_contrib,
+                                    t->d_render, r->d_means2d, r->d_conics, r->d_colors,
+                                    r->d_opacities);
+        double s5 = gv_now();
+        gv_splat_project_backward(r->tiles.n_visible, r->tiles.visible, g->means, g->scales,
+                                  g->rotations, v, r->d_means2d, r->d_conics, t->grad.means,
+                                  t->grad.scales, t->grad.rotations);
+        gv_splat_sh_backward(r->tiles.n_visible, r->tiles.visible, g->sh_degree,
+                             t->active_degree, g->sh, g->means, v->campos, r->clamped,
+                             r->d_colors, t->grad.sh, t->grad.means);
+        double s6 = gv_now();
+        double d[STAGES] = {s1 - s0, s3 - s2, s2 - s1, s4 - s3, s5 - s4, s6 - s5};
+        for (int s = 0; s < STAGES; s++) samples[s][k] = 1e3 * d[s];
+    }
+    for (int s = 0; s < STAGES; s++) c->stage_ms[s] = median(samples[s], reps);
+    c->iteration = t->iteration, c->gaussians = g->n;
+    c->visible = r->tiles.n_visible, c->entries = r->tiles.n_entries;
+    /* The trainer's buffers hold gradients of this test: clear them as a step would. */
+    memset(t->grad.means, 0, sizeof(float) * 3 * (size_t)g->n);
+    memset(t->grad.sh, 0, sizeof(float) * 3 * gv_sh_coefficient_count(g->sh_degree) * (size_t)g->n);
+    memset(t->grad.opacities, 0, sizeof(float) * (size_t)g->n);
+    memset(t->grad.scales, 0, sizeof(float) * 3 * (size_t)g->n);
+    memset(t->grad.rotations, 0, sizeof(float) * 4 * (size_t)g->n);
+    return 0;
+}
+
+typedef struct {
+    char name[256];
+    int width, height, n_train, iterations;
+    double seconds, cpu_seconds, phase_median_ms[GV_PHASES], iteration_median_ms;
+    int n_checkpoints;
+    checkpoint checkpoints[64];
+    double held_psnr, held_ssim, train_psnr, train_ssim;
+    int final_gaussians;
+} scene_result;
+
+static int evaluate(const gv_splat_trainer *t, const gv_scene *scene, int interval,
+                    scene_result *res)
+{
+    int n = scene->n_frames, *frames = malloc((size_t)n * sizeof(int));
+    gv_splat_frame_metrics *m = malloc((size_t)n * sizeof *m);
+    if (!frames || !m) {
+        free(frames), free(m);
+        return gv_fail("bench: out of memory");
+    }
+    for (int i = 0; i < n; i++) frames[i] = i;
+    float bg[3] = {0, 0, 0};
+    int ok = gv_splat_evaluate(&t->params, scene, frames, n, bg, m);
+    int nh = 0, nt = 0;
+    res->held_psnr = res->held_ssim = res->train_psnr = res->train_ssim = 0;
+    for (int i = 0; i < n && ok == 0; i++) {
+        if (i % interval == 0) res->train_psnr += m[i].psnr, res->train_ssim += m[i].ssim, nt++;
+        else res->held_psnr += m[i].psnr, res->held_ssim += m[i].ssim, nh++;
+    }
+    if (nt) res->train_psnr /= nt, res->train_ssim /= nt;
+    if (nh) res->held_psnr /= nh, res->held_ssim /= nh;
+    free(frames), free(m);
+    return ok;
+}
+
+static int bench_scene(const char *dir, const gv_bench_splat_options *o, scene_result *res)
+{
+    gv_scene scene;
+    if (gv_scene_load(dir, NULL, &scene) != 0) return -1;
+    int n = scene.n_frames, n_train = 0, n_held = 0;
+    int *train = malloc((size_t)n * sizeof(int)), *held = malloc((size_t)n * sizeof(int));
+    gv_camera *cams = malloc((size_t)n * sizeof(gv_camera));
+    gv_image *images = calloc((size_t)n, sizeof(gv_image));
+    double *phase[GV_PHASES] = {0}, *total = malloc((size_t)o->iterations * sizeof(double));
+    for (int p = 0; p < GV_PHASES; p++) phase[p] = malloc((size_t)o->iterations * sizeof(double));
+    gv_splat_trainer t;
+    memset(&t, 0, sizeof t);
+    int ok = -1, loaded = 0;
+    if (!train || !held || !cams || !images || !total || !phase[GV_PHASES - 1]) {
+        gv_fail("bench: out of memory");
+        goto done;
+    }
+    if (gv_scene_split(n, o->interval, train, &n_train, held, &n_held) != 0) goto done;
+    for (; loaded < n_train; loaded++) {
+        cams[loaded] = scene.cameras[train[loaded]];
+        if (gv_scene_load_image(&scene, train[loaded], &images[loaded]) != 0) goto done;
+    }
+    gv_splat_train_options opt;
+    gv_splat_train_defaults(&opt);
+    opt.iterations = o->iterations;
+    opt.sparse_adam = o->sparse_adam;
+    if (gv_splat_trainer_init(&t, &opt, n_train, cams, images,
+                              gv_scene_extent(&scene, train, n_train), scene.n_points,
+                              scene.points, scene.colors) != 0)
+        goto done;
+    const char *base = strrchr(dir, '/');
+    snprintf(res->name, sizeof res->name, "%s", base && base[1] ? base + 1 : dir);
+    res->width = cams[0].width, res->height = cams[0].height;
+    res->n_train = n_train, res->iterations = o->iterations, res->n_checkpoints = 0;
+    int every = o->checkpoint_every;
+    gv_progress bar;
+    gv_progress_start(&bar, res->name, o->iterations);
+    double start = gv_now(), cpu_start = cpu_seconds(), stage_time = 0, stage_cpu = 0;
+    for (int it = 0; it < o->iterations; it++) {
+        double before[GV_PHASES];
+        memcpy(before, t.seconds, sizeof before);
+        if (gv_splat_trainer_step(&t) != 0) goto done;
+        total[it] = 0;
+        for (int p = 0; p < GV_PHASES; p++) {
+            phase[p][it] = 1e3 * (t.seconds[p] - before[p]);
+            total[it] += phase[p][it];
+        }
+        if ((t.iteration % every == 0 || t.iteration == 1) && res->n_checkpoints < 64) {
+            double s0 = gv_now(), c0 = cpu_seconds();
+            if (time_stages(&t, 5, &res->checkpoints[res->n_checkpoints++]) != 0) goto done;
+            stage_time += gv_now() - s0, stage_cpu += cpu_seconds() - c0;
+        }
+        gv_progress_update(&bar, t.iteration, "%d Gaussians", t.params.n);
+    }
+    gv_progress_finish(&bar);
+    res->seconds = gv_now() - start - stage_time;
+    res->cpu_seconds = cpu_seconds() - cpu_start - stage_cpu;
+    for (int p = 0; p < GV_PHASES; p++) res->phase_median_ms[p] = median(phase[p], o->iterations);
+    res->iteration_median_ms = median(total, o->iterations);
+    res->final_gaussians = t.params.n;
+    ok = evaluate(&t, &scene, o->interval, res);
+done:
+    gv_splat_trainer_free(&t);
+    for (int i = 0; i < loaded; i++) gv_image_free(&images[i]);
+    free(images), free(cams), free(train), free(held), free(total);
+    for (int p = 0; p < GV_PHASES; p++) free(phase[p]);
+    gv_scene_free(&scene);
+    return ok == 0 ? 0 : gv_fail_context("bench splat: %s", dir);
+}
+
+static void print_table(const scene_result *r, const gv_bench_splat_options *o, FILE *out)
+{
+    fprintf(out, "\n%s %dx%d, interval %d (%d training views), %d iterations, %d threads, %s Adam\n",
+            r->name, r->width, r->height, o->interval, r->n_train, r->iterations,
+            omp_get_max_threads(), o->sparse_adam ? "sparse" : "dense");
+    fprintf(out, "%9s %9s %8s %8s", "iteration", "gaussians", "visible", "entries");
+    for (int s = 0; s < STAGES; s++) fprintf(out, " %12s", stage_names[s]);
+    fprintf(out, "   (ms, median of 5)\n");
+    for (int k = 0; k < r->n_checkpoints; k++) {
+        const checkpoint *c = &r->checkpoints[k];
+        fprintf(out, "%9d %9d %8d %8d", c->iteration, c->gaussians, c->visible, c->entries);
+        for (int s = 0; s < STAGES; s++) fprintf(out, " %12.2f", c->stage_ms[s]);
+        fprintf(out, "\n");
+    }
+    fprintf(out, "median ms per iteration:");
+    for (int p = 0; p < GV_PHASES; p++) fprintf(out, " %s %.2f,", phase_names[p], r->phase_median_ms[p]);
+    fprintf(out, " total %.2f\n", r->iteration_median_ms);
+    fprintf(out, "seconds for %d iterations: %.1f (CPU %.1f s over all threads); final Gaussians %d\n",
+            r->iterations, r->seconds, r->cpu_seconds, r->final_gaussians);
+    fprintf(out, "held-out PSNR %.3f dB, SSIM %.4f; training views PSNR %.3f dB, SSIM %.4f\n",
+            r->held_psnr, r->held_ssim, r->train_psnr, r->train_ssim);
+}
+
+static cJSON *result_json(const scene_result *r)
+{
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "scene", r->name);
+    cJSON_AddNumberToObject(o, "width", r->width);
+    cJSON_AddNumberToObject(o, "height", r->height);
+    cJSON_AddNumberToObject(o, "training_views", r->n_train);
+    cJSON_AddNumberToObject(o, "iterations", r->iterations);
+    cJSON_AddNumberToObject(o, "seconds", r->seconds);
+    cJSON_AddNumberToObject(o, "cpu_seconds", r->cpu_seconds);
+    cJSON_AddNumberToObject(o, "median_ms_per_iteration", r->iteration_median_ms);
+    cJSON *ph = cJSON_AddObjectToObject(o, "median_ms");
+    for (int p = 0; p < GV_PHASES; p++) cJSON_AddNumberToObject(ph, phase_names[p], r->phase_median_ms[p]);
+    cJSON *cps = cJSON_AddArrayToObject(o, "checkpoints");
+    for (int k = 0; k < r->n_checkpoints; k++) {
+        const checkpoint *c = &r->checkpoints[k];
+        cJSON *j = cJSON_CreateObject();
+        cJSON_AddNumberToObject(j, "iteration", c->iteration);
+        cJSON_AddNumberToObject(j, "gaussians", c->gaussians);
+        cJSON_AddNumberToObject(j, "visible", c->visible);
+        cJSON_AddNumberToObject(j, "entries", c->entries);
+        for (int s = 0; s < STAGES; s++) cJSON_AddNumberToObject(j, stage_names[s], c->stage_ms[s]);
+        cJSON_AddItemToArray(cps, j);
+    }
+    cJSON_AddNumberToObject(o, "final_gaussians", r->final_gaussians);
+    cJSON_AddNumberToObject(o, "held_out_psnr", r->held_psnr);
+    cJSON_AddNumberToObject(o, "held_out_ssim", r->held_ssim);
+    cJSON_AddNumberToObject(o, "train_psnr", r->train_psnr);
+    cJSON_AddNumberToObject(o, "train_ssim", r->train_ssim);
+    return o;
+}
+
+int gv_bench_splat(const gv_bench_splat_options *o, FILE *out)
+{
+    char dirs[2][4200];
+    int n_dirs = 0;
+    if (o->scene) {
+        snprintf(dirs[n_dirs++], sizeof dirs[0], "%s", o->scene);
+    } else {
+        const char *base = getenv("GV_SHARED_DATA");
+        const char *names[2] = {"courtyard", "livingroom"};
+        for (int k = 0; k < 2; k++) {
+            snprintf(dirs[n_dirs], sizeof dirs[0], "%s/scenes/%s", base ? base : "../shared/data",
+                     names[k]);
+            if (gv_dir_exists(dirs[n_dirs])) n_dirs++;
+        }
+        if (n_dirs == 0)
+            return gv_fail("bench splat: no shared scenes under %s/scenes; pass --scene DIR",
+                           base ? base : "../shared/data");
+    }
+    cJSON *all = o->json ? cJSON_CreateArray() : NULL;
+    for (int k = 0; k < n_dirs; k++) {
+        scene_result *r = calloc(1, sizeof *r);
+        if (!r || bench_scene(dirs[k], o, r) != 0) {
+            free(r);
+            cJSON_Delete(all);
+            return r ? -1 : gv_fail("bench splat: out of memory");
+        }
+        if (all) cJSON_AddItemToArray(all, result_json(r));
+        else print_table(r, o, out);
+        free(r);
+    }
+    if (all) {
+        char *text = cJSON_Print(all);
+        if (text) fprintf(out, "%s\n", text);
+        cJSON_free(text);
+        cJSON_Delete(all);
+    }
+    return 0;
+}
+
+int gv_bench_splat_command(int argc, char **argv)
+{
+    gv_bench_splat_options o = {.interval = 6, .iterations = 8000, .checkpoint_every = 1000};
+    int quick = 0;
+    const gv_flag flags[] = {
+        {"scene", GV_FLAG_STRING, &o.scene, "DIR", "one scene (default: the shared courtyard and livingroom)", 0},
+        {"json", GV_FLAG_BOOL, &o.json, NULL, "print JSON instead of tables", 0},
+        {"quick", GV_FLAG_BOOL, &quick, NULL, "300 iterations (a smoke test)", 0},
+        {"iters", GV_FLAG_INT, &o.iterations, "N", "iterations (default 8000)", 0},
+        {"interval", GV_FLAG_INT, &o.interval, "N", "train on frames 0, N, 2N, ... (default 6)", 0},
+        {"sparse-adam", GV_FLAG_BOOL, &o.sparse_adam, NULL, "Adam on the visible Gaussians only", 0},
+    };
+    const gv_command_spec spec = {
+        "bench splat", NULL, "sparse-view 3DGS training speed: phases, kernel stages, quality",
+        "Trains on every 6th frame of each scene for 8000 iterations (the dataset's early stop)\n"
+        "and prints the median ms per iteration of each phase, the Gaussian count and the\n"
+        "median time of each kernel stage every 1000 iterations, the seconds for the run and\n"
+        "the final held-out PSNR / SSIM. Results: docs/BENCHMARKS.md.",
+        flags, sizeof flags / sizeof flags[0], 0, 0};
+    int rc = gv_args_parse(&spec, argc, argv, NULL, NULL);
+    if (rc != GV_ARGS_OK) return gv_args_exit_code(rc);
+    if (quick) o.iterations = 300, o.checkpoint_every = 100;
+    if (o.iterations < 1 || o.interval < 1) {
+        fprintf(stderr, "gaussvid bench splat: --iters and --interval must be at least 1\n");
+        return 2;
+    }
+    o.checkpoint_every = o.iterations >= 8 * o.checkpoint_every ? o.checkpoint_every
+                                                                 : (o.iterations + 7) / 8;
+    return gv_bench_splat(&o, stdout) == 0 ? 0 : gv_report_failure();
+}

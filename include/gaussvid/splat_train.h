@@ -1,0 +1,201 @@
+/* Training 3D Gaussian Splatting from the views of a scene, as the reference 3DGS does
+ * (reference doc gaussian-splatting.md sections 3, 12-14; docs/SPLAT_TRAINING.md):
+ * initialisation from the sparse points, Adam with the reference learning rates, adaptive
+ * density control (clone, split, prune, opacity reset), the training loop, and evaluation
+ * of a model on a scene's views. Rendering itself is in render.h. */
+#ifndef GAUSSVID_SPLAT_TRAIN_H
+#define GAUSSVID_SPLAT_TRAIN_H
+
+#include <stdint.h>
+
+#include "gaussvid/core.h"
+#include "gaussvid/gaussians.h"
+#include "gaussvid/image.h"
+#include "gaussvid/render.h"
+#include "gaussvid/scene.h"
+
+/* ---- knn.c ------------------------------------------------------------------------------
+ * Exact k nearest neighbours with a kd-tree: out[i] = mean squared distance from point i
+ * to its k nearest other points (fewer when the cloud has fewer; 0 when it has one point).
+ * xyz is n * 3. Fails on k < 1 or when memory runs out. */
+int gv_knn_mean_sq_dist(int n, const float *xyz, int k, float *out);
+
+/* ---- init.c -----------------------------------------------------------------------------
+ * 3DGS create_from_pcd (section 3.1): SH DC from the colour, (rgb - 0.5) / C0, higher SH 0;
+ * isotropic log-scale log sqrt(max(mean sq. distance to the 3 nearest neighbours, 1e-7));
+ * rotation (1, 0, 0, 0); opacity logit(0.1). rgb is n * 3 bytes (NULL: grey 128). */
+int gv_splat_init_from_points(gv_gaussians *g, int n, const float *xyz, const uint8_t *rgb,
+                              int sh_degree);
+/* Random initialisation when a scene has no points (section 3.2): n points uniform in the
+ * axis-aligned cube center +- half_size, SH DC uniform in [0, 1/255) as 3DGS draws it,
+ * then create_from_pcd's scales, rotations and opacities. */
+int gv_splat_init_random(gv_gaussians *g, int n, const double center[3], double half_size,
+                         int sh_degree, uint64_t seed);
+
+/* ---- splat_adam.c -----------------------------------------------------------------------
+ * Adam (PyTorch form) with one parameter group per attribute (section 13). */
+enum {
+    GV_ADAM_MEANS, GV_ADAM_SH_DC, GV_ADAM_SH_REST, GV_ADAM_OPACITY, GV_ADAM_SCALES,
+    GV_ADAM_ROTATIONS, GV_ADAM_GROUPS
+};
+#define GV_ADAM_ALL_GROUPS ((1u << GV_ADAM_GROUPS) - 1u)
+
+typedef struct {
+    double means_lr_init, means_lr_final; /* multiplied by the scene extent */
+    long means_lr_steps;                  /* log-linear decay over this many iterations */
+    double sh_dc_lr, sh_rest_lr, opacity_lr, scales_lr, rotations_lr;
+    double beta1, beta2, eps;
+} gv_splat_adam_config;
+
+typedef struct {
+    gv_splat_adam_config config;
+    double spatial_lr_scale;     /* the scene extent */
+    double lr[GV_ADAM_GROUPS];   /* current learning rates */
+    long step[GV_ADAM_GROUPS];   /* steps taken per group (bias correction) */
+    gv_gaussians m, v;           /* first and second moments, rows parallel to the model */
+} gv_splat_adam;
+
+/* The reference 3DGS values (section 13.1, the 2023 release: opacity 0.05). */
+void gv_splat_adam_defaults(gv_splat_adam_config *c);
+/* get_expon_lr_func without delay: exp((1 - t) ln lr_init + t ln lr_final), t =
+ * clamp(step / max_steps, 0, 1); 0 when both rates are 0. */
+double gv_splat_expon_lr(long step, double lr_init, double lr_final, long max_steps);
+/* Zero moments for the rows of params, step counts 0, rates at iteration 0. */
+int gv_splat_adam_init(gv_splat_adam *a, const gv_splat_adam_config *c,
+                       const gv_gaussians *params, double spatial_lr_scale);
+/* update_learning_rate(iteration): the position rate of this iteration. */
+void gv_splat_adam_set_iteration(gv_splat_adam *a, long iteration);
+/* One Adam step of the groups in group_mask on the listed rows (rows NULL: every row, the
+ * reference's dense Adam). Only the first n_coeffs SH coefficients per channel are touched:
+ * those above the active degree have zero gradient and zero moments, so Adam would leave
+ * them unchanged anyway. */
+void gv_splat_adam_step(gv_splat_adam *a, gv_gaussians *params, const gv_gaussians *grad,
+                        const int *rows, int n_rows, int n_coeffs, unsigned group_mask);
+void gv_splat_adam_free(gv_splat_adam *a);
+
+/* ---- densify.c --------------------------------------------------------------------------
+ * Adaptive density control (section 14.2-14.3). */
+typedef struct {
+    int capacity;
+    float *grad_accum;  /* sum over views of |dL/d means2d| in NDC units (render.h) */
+    int *denom;         /* number of views in which the Gaussian was visible */
+    int *max_radii;     /* largest screen radius seen, pixels */
+} gv_splat_densify_stats;
+
+typedef struct {
+    double grad_threshold;   /* 0.0002: clone or split when the mean statistic is >= this */
+    double percent_dense;    /* 0.01: clone when max scale <= this x extent, else split */
+    double min_opacity;      /* 0.005: prune below */
+    double extent;           /* the scene extent */
+    int prune_big;           /* also prune max scale > 0.1 x extent (after the first reset) */
+    int max_screen_size;     /* prune max radius > this (pixels); 0 = off, as the reference
+                              * effectively runs (its statistic is zeroed before the test) */
+} gv_splat_densify_params;
+
+typedef struct { int cloned, split, pruned; } gv_splat_densify_counts;
+
+/* Makes room for `capacity` rows; new rows are zero. */
+int gv_splat_densify_stats_reserve(gv_splat_densify_stats *s, int capacity);
+/* Zeroes the statistics of rows [0, n). */
+void gv_splat_densify_stats_clear(gv_splat_densify_stats *s, int n);
+/* add_densification_stats for the visible Gaussians of one view. */
+void gv_splat_densify_accumulate(gv_splat_densify_stats *s, int n_visible, const int *visible,
+                                 const float *densify_grad, const int *radii);
+/* densify_and_prune: clone, then split (2 children sampled from the Gaussian with rng,
+ * scales / 1.6, parent removed), then prune; the Adam moments follow every row (new rows
+ * zero), and the statistics are zeroed. counts may be NULL. */
+int gv_splat_densify_and_prune(gv_gaussians *g, gv_splat_adam *adam,
+                               gv_splat_densify_stats *s, const gv_splat_densify_params *p,
+                               gv_rng *rng, gv_splat_densify_counts *counts);
+/* reset_opacity: opacity <= 0.01 for every Gaussian and zero opacity moments. */
+void gv_splat_reset_opacity(gv_gaussians *g, gv_splat_adam *adam);
+void gv_splat_densify_stats_free(gv_splat_densify_stats *s);
+
+/* ---- train.c ----------------------------------------------------------------------------
+ * The loop of 3DGS train.py (section 14.1). Iteration numbers start at 1. */
+typedef enum { GV_BG_BLACK, GV_BG_WHITE, GV_BG_RANDOM } gv_splat_background;
+
+typedef struct {
+    int sh_interval;            /* 1000: one more SH degree at each multiple */
+    int densify_from;           /* 500: densify when iteration > this ... */
+    int densify_until;          /* 15000: ... and < this ... */
+    int densify_interval;       /* 100: ... and a multiple of this */
+    int opacity_reset_interval; /* 3000 (while < densify_until) */
+} gv_splat_schedule;
+
+typedef struct {
+    int iterations;             /* 30000 (the reference); --iters 8000 for the dataset */
+    int sh_degree;              /* 3 */
+    uint64_t seed;
+    gv_splat_background background;
+    int sparse_adam;            /* Adam on the visible Gaussians only (see docs) */
+    int random_points;          /* 100000: initial points when the scene has none */
+    double lambda_dssim;        /* 0.2 */
+    gv_splat_adam_config adam;
+    gv_splat_schedule schedule;
+    gv_splat_densify_params densify; /* extent is set by the trainer */
+    const char *progress_label; /* NULL: no progress bar */
+} gv_splat_train_options;
+
+enum { GV_PHASE_RENDER, GV_PHASE_LOSS, GV_PHASE_BACKWARD, GV_PHASE_DENSIFY, GV_PHASE_ADAM,
+       GV_PHASES };
+
+typedef struct {
+    gv_splat_train_options opt;
+    int n_views;
+    const gv_camera *cameras;   /* borrowed: n_views cameras and their images */
+    const gv_image *images;
+    gv_splat_view *views;       /* the cameras as the renderer takes them */
+    double extent;
+    gv_gaussians params, grad;
+    gv_splat_adam adam;
+    gv_splat_densify_stats stats;
+    gv_splat_renderer renderer;
+    float *render, *target, *d_render, *densify_grad;
+    int *order, order_pos;      /* this epoch's shuffled view order */
+    gv_rng view_rng, bg_rng, split_rng;
+    int iteration, active_degree;
+    double loss, ema_loss;      /* last loss; 0.4 last + 0.6 previous (train.py) */
+    gv_splat_densify_counts densified; /* totals */
+    double seconds[GV_PHASES];  /* time spent per phase */
+} gv_splat_trainer;
+
+/* The reference defaults (sections 13-14) and the values above. */
+void gv_splat_train_defaults(gv_splat_train_options *opt);
+/* Sets up training on n_views cameras and their RGB images (kept by the caller until
+ * gv_splat_trainer_free), initialised from the points (random points when n_points is 0).
+ * extent is the 3DGS scene extent of the training cameras. */
+int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt, int n_views,
+                          const gv_camera *cameras, const gv_image *images, double extent,
+                          int n_points, const float *xyz, const uint8_t *rgb);
+/* Runs the next iteration. */
+int gv_splat_trainer_step(gv_splat_trainer *t);
+void gv_splat_trainer_free(gv_splat_trainer *t);
+/* Trains on the frames 0, n, 2n, ... (n = interval) of a scene and returns the model in
+ * out (to be freed with gv_gaussians_free). */
+int gv_splat_train(const gv_scene *scene, int interval, const gv_splat_train_options *opt,
+                   gv_gaussians *out);
+
+/* ---- evaluate.c -------------------------------------------------------------------------
+ * Rendering a model from a scene camera to 8 bits, and metrics as 3DGS metrics.py computes
+ * them: on the clamped, 8-bit-quantised render against the 8-bit ground truth. */
+int gv_splat_render_camera(gv_splat_renderer *r, const gv_gaussians *g, const gv_camera *cam,
+                           const float bg[3], gv_image *out);
+typedef struct {
+    int frame;
+    int train;          /* 1 for a training view */
+    double psnr, ssim;
+} gv_splat_frame_metrics;
+/* Renders and scores the listed frames of a scene; metrics is n_frames long. */
+int gv_splat_evaluate(const gv_gaussians *g, const gv_scene *scene, const int *frames,
+                      int n_frames, const float bg[3], gv_splat_frame_metrics *metrics);
+
+/* ---- camera_path.c ----------------------------------------------------------------------
+ * A camera between a (s = 0) and b (s = 1): rotation by quaternion slerp, centre and
+ * intrinsics linearly; the size and name are a's. */
+void gv_camera_interpolate(const gv_camera *a, const gv_camera *b, double s, gv_camera *out);
+/* n_out cameras evenly spaced in the path parameter along the keys (piecewise between
+ * consecutive keys), from the first key to the last. */
+void gv_camera_path(const gv_camera *keys, int n_keys, int n_out, gv_camera *out);
+
+#endif

@@ -1,0 +1,298 @@
+/* The 3DGS training iteration (reference doc section 14.1; 3DGS train.py), in the
+ * reference order:
+ *   1. position learning rate of this iteration;
+ *   2. one more SH degree at every multiple of sh_interval;
+ *   3. next training view from a shuffled epoch order (train.py pops a random view from a
+ *      stack refilled when empty: a permutation per epoch);
+ *   4. background, render, loss 0.8 L1 + 0.2 (1 - SSIM), backward;
+ *   5. while iteration < densify_until: densification statistics of the visible Gaussians;
+ *      densify_and_prune when iteration > densify_from and a multiple of densify_interval;
+ *      opacity reset at multiples of opacity_reset_interval;
+ *   6. Adam step.
+ * In an iteration that densifies, the reference replaces every parameter tensor (new
+ * nn.Parameter objects without .grad), so torch's Adam skips them all: no Adam step and no
+ * step count for that iteration. A reset alone replaces only the opacity tensor. Both are
+ * reproduced. The last iteration (iteration == iterations) neither densifies nor steps:
+ * train.py saves the model at that iteration before its densification, and steps Adam only
+ * while iteration < iterations, so the model returned is the one the reference saves. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/core.h"
+#include "gaussvid/metrics.h"
+#include "gaussvid/splat_train.h"
+
+/* Philox streams of one training run, derived from the seed. */
+enum { STREAM_VIEWS = 1, STREAM_BACKGROUND = 2, STREAM_SPLIT = 3, STREAM_INIT = 4 };
+
+static uint64_t stream_seed(uint64_t seed, int stream)
+{
+    return seed * 0x9E3779B97F4A7C15ull + (uint64_t)stream * 0xD1B54A32D192ED03ull;
+}
+
+void gv_splat_train_defaults(gv_splat_train_options *opt)
+{
+    memset(opt, 0, sizeof *opt);
+    opt->iterations = 30000;
+    opt->sh_degree = 3;
+    opt->background = GV_BG_BLACK;
+    opt->sparse_adam = 0;
+    opt->random_points = 100000;
+    opt->lambda_dssim = 0.2;
+    gv_splat_adam_defaults(&opt->adam);
+    opt->schedule = (gv_splat_schedule){.sh_interval = 1000, .densify_from = 500,
+                                        .densify_until = 15000, .densify_interval = 100,
+                                        .opacity_reset_interval = 3000};
+    opt->densify = (gv_splat_densify_params){.grad_threshold = 0.0002, .percent_dense = 0.01,
+                                             .min_opacity = 0.005};
+}
+
+static int check_inputs(const gv_splat_train_options *opt, int n_views,
+                        const gv_camera *cameras, const gv_image *images, double extent)
+{
+    if (opt->iterations < 1) return gv_fail("train: %d iterations; need at least 1", opt->iterations);
+    if (opt->sh_degree < 0 || opt->sh_degree > 3)
+        return gv_fail("train: SH degree %d is not in 0..3", opt->sh_degree);
+    const gv_splat_schedule *s = &opt->schedule;
+    if (s->sh_interval < 1 || s->densify_interval < 1 || s->opacity_reset_interval < 1)
+        return gv_fail("train: schedule intervals must be at least 1");
+    if (n_views < 1) return gv_fail("train: no training views");
+    if (!(extent > 0) || !isfinite(extent))
+        return gv_fail("train: the scene extent of the training cameras is %g (all cameras at one "
+                       "place?); it scales the position learning rate and must be positive", extent);
+    for (int i = 0; i < n_views; i++)
+        if (images[i].width != cameras[i].width || images[i].height != cameras[i].height ||
+            images[i].channels != 3)
+            return gv_fail("train: %s: image is %dx%dx%d but the camera is %dx%d (RGB expected)",
+                           cameras[i].name, images[i].width, images[i].height, images[i].channels,
+                           cameras[i].width, cameras[i].height);
+    return 0;
+}
+
+/* The initial Gaussians: the points, or random points in a cube of half-size 3 x extent
+ * around the mean camera centre (gsplat's init_extent; docs/SPLAT_TRAINING.md). */
+static int initial_gaussians(gv_splat_trainer *t, int n_points, const float *xyz,
+                             const uint8_t *rgb)
+{
+    if (n_points > 0)
+        return gv_splat_init_from_points(&t->params, n_points, xyz, rgb, t->opt.sh_degree);
+    double center[3] = {0, 0, 0}, c[3];
+    for (int i = 0; i < t->n_views; i++) {
+        gv_camera_center(&t->cameras[i], c);
+        for (int a = 0; a < 3; a++) center[a] += c[a] / t->n_views;
+    }
+    gv_info("no points in the scene: %d random points in a cube of half-size %.3g around the "
+            "cameras", t->opt.random_points, 3.0 * t->extent);
+    return gv_splat_init_random(&t->params, t->opt.random_points, center, 3.0 * t->extent,
+                                t->opt.sh_degree, stream_seed(t->opt.seed, STREAM_INIT));
+}
+
+int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt, int n_views,
+                          const gv_camera *cameras, const gv_image *images, double extent,
+                          int n_points, const float *xyz, const uint8_t *rgb)
+{
+    memset(t, 0, sizeof *t);
+    if (check_inputs(opt, n_views, cameras, images, extent) != 0) return -1;
+    t->opt = *opt;
+    t->opt.densify.extent = extent;
+    t->n_views = n_views, t->cameras = cameras, t->images = images, t->extent = extent;
+    long pixels = 0;
+    t->views = calloc((size_t)n_views, sizeof *t->views);
+    t->order = malloc((size_t)n_views * sizeof(int));
+    if (!t->views || !t->order) goto out_of_memory;
+    for (int i = 0; i < n_views; i++) {
+        if (gv_splat_view_from_camera(&t->views[i], &cameras[i]) != 0) {
+            gv_fail_context("train: camera %s", cameras[i].name);
+            goto fail;
+        }
+        long p = (long)cameras[i].width * cameras[i].height;
+        if (p > pixels) pixels = p;
+    }
+    t->render = malloc((size_t)pixels * 3 * sizeof(float));
+    t->target = malloc((size_t)pixels * 3 * sizeof(float));
+    t->d_render = malloc((size_t)pixels * 3 * sizeof(float));
+    if (!t->render || !t->target || !t->d_render) goto out_of_memory;
+    if (initial_gaussians(t, n_points, xyz, rgb) != 0) goto fail;
+    if (gv_gaussians_alloc(&t->grad, t->params.n, t->params.sh_degree) != 0 ||
+        gv_gaussians_reserve(&t->grad, t->params.capacity) != 0 ||
+        gv_splat_adam_init(&t->adam, &opt->adam, &t->params, extent) != 0 ||
+        gv_splat_densify_stats_reserve(&t->stats, t->params.capacity) != 0)
+        goto fail;
+    t->densify_grad = calloc((size_t)t->params.capacity, sizeof(float));
+    if (!t->densify_grad) goto out_of_memory;
+    t->order_pos = n_views; /* empty: the first step shuffles */
+    gv_rng_init(&t->view_rng, stream_seed(opt->seed, STREAM_VIEWS));
+    gv_rng_init(&t->bg_rng, stream_seed(opt->seed, STREAM_BACKGROUND));
+    gv_rng_init(&t->split_rng, stream_seed(opt->seed, STREAM_SPLIT));
+    return 0;
+out_of_memory:
+    gv_fail("train: out of memory for %d views", n_views);
+fail:
+    gv_splat_trainer_free(t);
+    return -1;
+}
+
+void gv_splat_trainer_free(gv_splat_trainer *t)
+{
+    gv_gaussians_free(&t->params), gv_gaussians_free(&t->grad);
+    gv_splat_adam_free(&t->adam);
+    gv_splat_densify_stats_free(&t->stats);
+    gv_splat_renderer_free(&t->renderer);
+    free(t->views), free(t->order), free(t->render), free(t->target), free(t->d_render);
+    free(t->densify_grad);
+    memset(t, 0, sizeof *t);
+}
+
+/* Next view of the epoch; a new Fisher-Yates permutation when the epoch is over. */
+static int next_view(gv_splat_trainer *t)
+{
+    if (t->order_pos >= t->n_views) {
+        for (int i = 0; i < t->n_views; i++) t->order[i] = i;
+        for (int i = t->n_views - 1; i > 0; i--) {
+            int j = (int)(gv_rng_uniform(&t->view_rng) * (i + 1));
+            int tmp = t->order[i];
+            t->order[i] = t->order[j], t->order[j] = tmp;
+        }
+        t->order_pos = 0;
+    }
+    return t->order[t->order_pos++];
+}
+
+/* L = (1 - l) L1 + l (1 - SSIM) and dL/drender (section 11.1); autograd's sign(0) = 0. */
+static double loss_and_gradient(gv_splat_trainer *t, int width, int height)
+{
+    long count = (long)width * height * 3;
+    double lambda = t->opt.lambda_dssim;
+    double ssim = gv_ssim_with_gradient(t->render, t->target, width, height, 3, t->d_render);
+    if (isnan(ssim)) return NAN;
+    float w_l1 = (float)((1.0 - lambda) / (double)count), w_ssim = (float)-lambda;
+    double l1 = 0;
+    for (long q = 0; q < count; q++) {
+        float d = t->render[q] - t->target[q];
+        l1 += fabsf(d);
+        float sign = d > 0 ? 1.0f : d < 0 ? -1.0f : 0.0f;
+        t->d_render[q] = w_l1 * sign + w_ssim * t->d_render[q];
+    }
+    return (1.0 - lambda) * l1 / (double)count + lambda * (1.0 - ssim);
+}
+
+static void background(gv_splat_trainer *t, float bg[3])
+{
+    for (int c = 0; c < 3; c++)
+        bg[c] = t->opt.background == GV_BG_WHITE ? 1.0f
+                : t->opt.background == GV_BG_RANDOM ? (float)gv_rng_uniform(&t->bg_rng) : 0.0f;
+}
+
+/* Step 5. Returns a bit mask: 1 = densified, 2 = opacity reset; -1 on failure. */
+static int density_control(gv_splat_trainer *t)
+{
+    const gv_splat_schedule *s = &t->opt.schedule;
+    int it = t->iteration, done = 0;
+    if (it >= s->densify_until || it >= t->opt.iterations) return 0;
+    gv_splat_renderer *r = &t->renderer;
+    gv_splat_densify_accumulate(&t->stats, r->tiles.n_visible, r->tiles.visible,
+                                t->densify_grad, r->radii);
+    if (it > s->densify_from && it % s->densify_interval == 0) {
+        gv_splat_densify_params p = t->opt.densify;
+        p.prune_big = it > s->opacity_reset_interval; /* size_threshold given after 3000 */
+        gv_splat_densify_counts c;
+        if (gv_splat_densify_and_prune(&t->params, &t->adam, &t->stats, &p, &t->split_rng, &c))
+            return -1;
+        t->densified.cloned += c.cloned, t->densified.split += c.split;
+        t->densified.pruned += c.pruned;
+        done |= 1;
+    }
+    if (it % s->opacity_reset_interval == 0 ||
+        (t->opt.background == GV_BG_WHITE && it == s->densify_from)) {
+        gv_splat_reset_opacity(&t->params, &t->adam);
+        done |= 2;
+    }
+    return done;
+}
+
+/* After densification the rows moved: the gradient buffers follow the new capacity and
+ * start from zero (the reference's new tensors have no gradient). */
+static int resize_buffers(gv_splat_trainer *t)
+{
+    int cap = t->params.capacity;
+    if (gv_gaussians_reserve(&t->grad, cap) != 0) return -1;
+    if (cap > t->stats.capacity && gv_splat_densify_stats_reserve(&t->stats, cap) != 0) return -1;
+    float *d = realloc(t->densify_grad, (size_t)cap * sizeof(float));
+    if (!d) return gv_fail("train: out of memory for %d Gaussians", cap);
+    t->densify_grad = d;
+    t->grad.n = t->params.n;
+    int w = 3 * gv_sh_coefficient_count(t->grad.sh_degree);
+    size_t n = (size_t)t->grad.n;
+    memset(t->grad.means, 0, 3 * n * sizeof(float));
+    memset(t->grad.sh, 0, (size_t)w * n * sizeof(float));
+    memset(t->grad.opacities, 0, n * sizeof(float));
+    memset(t->grad.scales, 0, 3 * n * sizeof(float));
+    memset(t->grad.rotations, 0, 4 * n * sizeof(float));
+    return 0;
+}
+
+/* Zeroes the gradient rows the backward wrote, so that every other row stays zero. */
+static void clear_visible_gradients(gv_splat_trainer *t)
+{
+    const int *vis = t->renderer.tiles.visible;
+    int w = 3 * gv_sh_coefficient_count(t->grad.sh_degree);
+    gv_gaussians *g = &t->grad;
+#pragma omp parallel for schedule(static)
+    for (int k = 0; k < t->renderer.tiles.n_visible; k++) {
+        size_t i = (size_t)vis[k];
+        memset(g->means + 3 * i, 0, 3 * sizeof(float));
+        memset(g->sh + w * i, 0, (size_t)w * sizeof(float));
+        g->opacities[i] = 0;
+        memset(g->scales + 3 * i, 0, 3 * sizeof(float));
+        memset(g->rotations + 4 * i, 0, 4 * sizeof(float));
+    }
+}
+
+int gv_splat_trainer_step(gv_splat_trainer *t)
+{
+    int it = ++t->iteration;
+    gv_splat_adam_set_iteration(&t->adam, it);
+    if (it % t->opt.schedule.sh_interval == 0 && t->active_degree < t->opt.sh_degree)
+        t->active_degree++;
+    int v = next_view(t);
+    const gv_splat_view *view = &t->views[v];
+    float bg[3];
+    background(t, bg);
+
+    double t0 = gv_now();
+    if (gv_splat_render_forward(&t->renderer, &t->params, view, t->active_degree, bg, t->render))
+        return gv_fail_context("train: iteration %d", it);
+    double t1 = gv_now();
+    gv_image_to_float(&t->images[v], t->target);
+    t->loss = loss_and_gradient(t, view->width, view->height);
+    if (!isfinite(t->loss))
+        return gv_fail("train: the loss is %g at iteration %d (view %s)", t->loss, it,
+                       t->cameras[v].name);
+    t->ema_loss = it == 1 ? t->loss : 0.4 * t->loss + 0.6 * t->ema_loss;
+    double t2 = gv_now();
+    if (gv_splat_render_backward(&t->renderer, &t->params, t->d_render, &t->grad, t->densify_grad))
+        return gv_fail_context("train: iteration %d", it);
+    double t3 = gv_now();
+    int control = density_control(t);
+    if (control < 0) return gv_fail_context("train: iteration %d", it);
+    double t4 = gv_now();
+    if (control & 1) {
+        if (resize_buffers(t) != 0) return gv_fail_context("train: iteration %d", it);
+    } else {
+        unsigned groups = GV_ADAM_ALL_GROUPS & ~(control & 2 ? 1u << GV_ADAM_OPACITY : 0u);
+        const gv_splat_renderer *r = &t->renderer;
+        int n_coeffs = gv_sh_coefficient_count(t->active_degree);
+        if (it < t->opt.iterations && t->opt.sparse_adam)
+            gv_splat_adam_step(&t->adam, &t->params, &t->grad, r->tiles.visible,
+                               r->tiles.n_visible, n_coeffs, groups);
+        else if (it < t->opt.iterations)
+            gv_splat_adam_step(&t->adam, &t->params, &t->grad, NULL, t->params.n, n_coeffs, groups);
+        clear_visible_gradients(t);
+    }
+    double t5 = gv_now();
+    t->seconds[GV_PHASE_RENDER] += t1 - t0, t->seconds[GV_PHASE_LOSS] += t2 - t1;
+    t->seconds[GV_PHASE_BACKWARD] += t3 - t2, t->seconds[GV_PHASE_DENSIFY] += t4 - t3;
+    t->seconds[GV_PHASE_ADAM] += t5 - t4;
+    return 0;
+}

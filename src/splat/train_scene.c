@@ -1,0 +1,81 @@
+/* Training on the sparse split of a scene: frames 0, n, 2n, ... (DESIGN.md section 5),
+ * with a progress bar showing the iteration, the loss, the Gaussian count, the rate and
+ * the time left. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/core.h"
+#include "gaussvid/splat_train.h"
+
+static void free_images(gv_image *images, int n)
+{
+    for (int i = 0; i < n; i++) gv_image_free(&images[i]);
+    free(images);
+}
+
+static int run(gv_splat_trainer *t, const char *label)
+{
+    gv_progress bar;
+    if (label) gv_progress_start(&bar, label, t->opt.iterations);
+    while (t->iteration < t->opt.iterations) {
+        if (gv_splat_trainer_step(t) != 0) return -1;
+        if (label && (t->iteration % 10 == 0 || t->iteration == t->opt.iterations))
+            gv_progress_update(&bar, t->iteration, "loss %.4f  %d Gaussians  SH %d", t->ema_loss,
+                               t->params.n, t->active_degree);
+    }
+    if (label) gv_progress_finish(&bar);
+    double per = 1000.0 / (t->iteration > 0 ? t->iteration : 1);
+    gv_info("ms per iteration: render %.2f, loss %.2f, backward %.2f, densify %.2f, Adam %.2f; "
+            "%d cloned, %d split, %d pruned", t->seconds[GV_PHASE_RENDER] * per,
+            t->seconds[GV_PHASE_LOSS] * per, t->seconds[GV_PHASE_BACKWARD] * per,
+            t->seconds[GV_PHASE_DENSIFY] * per, t->seconds[GV_PHASE_ADAM] * per,
+            t->densified.cloned, t->densified.split, t->densified.pruned);
+    return 0;
+}
+
+int gv_splat_train(const gv_scene *scene, int interval, const gv_splat_train_options *opt,
+                   gv_gaussians *out)
+{
+    memset(out, 0, sizeof *out);
+    int n = scene->n_frames;
+    int *train = malloc((size_t)(n > 0 ? n : 1) * sizeof(int));
+    int *held_out = malloc((size_t)(n > 0 ? n : 1) * sizeof(int));
+    gv_camera *cameras = malloc((size_t)(n > 0 ? n : 1) * sizeof(gv_camera));
+    gv_image *images = calloc((size_t)(n > 0 ? n : 1), sizeof(gv_image));
+    int n_train = 0, n_held_out = 0, loaded = 0, ok = -1;
+    gv_splat_trainer t;
+    memset(&t, 0, sizeof t);
+    if (!train || !held_out || !cameras || !images) {
+        gv_fail("%s: out of memory for %d frames", scene->dir, n);
+        goto done;
+    }
+    if (gv_scene_split(n, interval, train, &n_train, held_out, &n_held_out) != 0) {
+        gv_fail_context("%s", scene->dir);
+        goto done;
+    }
+    for (; loaded < n_train; loaded++) {
+        cameras[loaded] = scene->cameras[train[loaded]];
+        if (gv_scene_load_image(scene, train[loaded], &images[loaded]) != 0) goto done;
+    }
+    double extent = gv_scene_extent(scene, train, n_train);
+    gv_info("%s: training on %d of %d frames (interval %d), %d held out, extent %.3f, %d points",
+            scene->dir, n_train, n, interval, n_held_out, extent, scene->n_points);
+    if (gv_splat_trainer_init(&t, opt, n_train, cameras, images, extent, scene->n_points,
+                              scene->points, scene->colors) != 0) {
+        gv_fail_context("%s", scene->dir);
+        goto done;
+    }
+    if (run(&t, opt->progress_label) != 0) {
+        gv_fail_context("%s", scene->dir);
+        goto done;
+    }
+    if (gv_gaussians_check_finite(&t.params, "trained model") != 0) goto done;
+    *out = t.params;
+    memset(&t.params, 0, sizeof t.params); /* ownership moves to the caller */
+    ok = 0;
+done:
+    gv_splat_trainer_free(&t);
+    if (images) free_images(images, loaded);
+    free(train), free(held_out), free(cameras);
+    return ok;
+}

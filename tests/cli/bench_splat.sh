@@ -1,0 +1,42 @@
+#!/bin/bash
+# gaussvid bench splat: help, usage errors, a missing scene, and a 20-iteration smoke run on
+# a tiny synthesised scene in table and JSON form (the full run and its numbers are in
+# docs/BENCHMARKS.md). Usage: bash bench_splat.sh /path/to/gaussvid
+gaussvid="$1"
+tmp="${GV_TMP:-/tmp/gaussvid-cli-bench-splat}"
+rm -rf "$tmp" && mkdir -p "$tmp"
+passed=0
+failed=0
+
+check() {  # check DESCRIPTION COMMAND...: counts the command's success
+    local what="$1"
+    shift
+    if "$@"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: $what"; fi
+}
+
+"$gaussvid" bench splat --help > "$tmp/help.txt"
+check "--help exits 0" test $? -eq 0
+check "--help lists --scene" grep -q -- "--scene DIR" "$tmp/help.txt"
+"$gaussvid" bench splat --iters 0 --scene "$tmp" 2> /dev/null
+check "--iters 0 exits 2" test $? -eq 2
+"$gaussvid" bench splat --scene "$tmp/nowhere" --iters 5 > /dev/null 2> "$tmp/err.txt"
+check "missing scene exits 1" test $? -eq 1
+check "missing scene named" grep -q "nowhere" "$tmp/err.txt"
+
+"$gaussvid" scene synth --frames 13 --size 48x32 --samples 1 --out "$tmp/scene" --quiet
+"$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet > "$tmp/table.txt"
+check "table run exits 0" test $? -eq 0
+check "table has the stages" grep -q "raster bwd" "$tmp/table.txt"
+rows=$(grep -cE '^ +[0-9]+ +[0-9]+ +[0-9]+ +[0-9]+ ' "$tmp/table.txt")
+check "table has checkpoint rows" test "$rows" -ge 5
+check "table has the phases" grep -q "median ms per iteration: render" "$tmp/table.txt"
+check "table has the quality" grep -q "held-out PSNR" "$tmp/table.txt"
+"$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet --json > "$tmp/b.json"
+check "json run exits 0" test $? -eq 0
+for key in seconds cpu_seconds median_ms checkpoints held_out_psnr final_gaussians; do
+    check "json has $key" grep -q "\"$key\":" "$tmp/b.json"
+done
+check "json has the table's checkpoints" test "$(grep -c '"iteration":' "$tmp/b.json")" -eq "$rows"
+
+echo "$passed passed, $failed failed"
+test "$failed" -eq 0

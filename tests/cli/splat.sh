@@ -1,0 +1,102 @@
+#!/bin/bash
+# gaussvid splat train / render / eval on a tiny synthesised scene: exit codes (0 success,
+# 1 failure, 2 usage), the files written, the JSON layout, the same model for the same seed,
+# and bad inputs (truncated or malformed model, too few frames for the interval) failing
+# with one line that names the file or the problem. Usage: bash splat.sh /path/to/gaussvid
+gaussvid="$1"
+tmp="${GV_TMP:-/tmp/gaussvid-cli-splat}"
+rm -rf "$tmp" && mkdir -p "$tmp"
+passed=0
+failed=0
+
+check() {  # check DESCRIPTION COMMAND...: counts the command's success
+    local what="$1"
+    shift
+    if "$@"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: $what"; fi
+}
+
+scene="$tmp/scene"
+"$gaussvid" scene synth --frames 12 --size 48x32 --samples 1 --out "$scene" --quiet
+check "synth a scene" test -f "$scene/transforms.json"
+
+# Train: 60 iterations on frames 0, 4, 8; the same seed gives the same bytes.
+train() {  # train OUT [more flags]
+    local out="$1"
+    shift
+    "$gaussvid" splat train --scene "$scene" --interval 4 --iters 60 --seed 5 --threads 2 \
+        --out "$out" --quiet "$@"
+}
+train "$tmp/a.ply" > "$tmp/train.txt" 2> "$tmp/train_err.txt"
+check "train exits 0" test $? -eq 0
+check "train writes the model" test -s "$tmp/a.ply"
+check "train prints the count" grep -q "Gaussians, SH degree 3, 60 iterations" "$tmp/train.txt"
+train "$tmp/b.ply" > /dev/null 2>&1
+check "same seed, same model" cmp -s "$tmp/a.ply" "$tmp/b.ply"
+train "$tmp/c.ply" --seed 6 --random-bg > /dev/null 2>&1
+check "another seed, another model" test -s "$tmp/c.ply" -a -n "$(cmp "$tmp/a.ply" "$tmp/c.ply")"
+"$gaussvid" splat train --scene "$scene" --iters 30 --sh-degree 1 --out "$tmp/d.ply" --quiet > "$tmp/d.txt"
+check "--sh-degree 1" grep -q "SH degree 1" "$tmp/d.txt"
+
+# Eval: 12 frames, 3 of them training views; JSON means and per-frame list.
+"$gaussvid" splat eval --model "$tmp/a.ply" --scene "$scene" --interval 4 --json "$tmp/e.json" > "$tmp/eval.txt"
+check "eval exits 0" test $? -eq 0
+check "eval table has 12 rows" test "$(grep -c '^[0-9]' "$tmp/eval.txt")" -eq 12
+check "eval held-out mean" grep -q "held-out mean (9 frames): PSNR" "$tmp/eval.txt"
+check "eval train mean" grep -q "train mean (3 frames): PSNR" "$tmp/eval.txt"
+check "json held_out" grep -q '"held_out":' "$tmp/e.json"
+check "json train" grep -q '"train":' "$tmp/e.json"
+check "json per_frame" grep -q '"per_frame":' "$tmp/e.json"
+check "json 12 frames" test "$(grep -c '"split":' "$tmp/e.json")" -eq 12
+check "json psnr" test "$(grep -c '"psnr":' "$tmp/e.json")" -eq 14
+
+# Render: held-out frames named like the images; a list; a path.
+"$gaussvid" splat render --model "$tmp/a.ply" --scene "$scene" --interval 4 --out "$tmp/held" --quiet > /dev/null
+check "render held-out exits 0" test $? -eq 0
+check "9 held-out PNGs" test "$(ls "$tmp/held" | wc -l)" -eq 9
+check "held-out names" test -f "$tmp/held/frame_00001.png" -a ! -e "$tmp/held/frame_00004.png"
+"$gaussvid" splat render --model "$tmp/a.ply" --scene "$scene" --frames 0,11 --out "$tmp/list" --quiet > /dev/null
+check "render a list" test "$(ls "$tmp/list" | tr '\n' ' ')" = "frame_00000.png frame_00011.png "
+"$gaussvid" splat render --model "$tmp/a.ply" --scene "$scene" --frames 0,4,8 --path 5 --out "$tmp/path" --quiet > /dev/null
+check "render a path" test "$(ls "$tmp/path" | wc -l)" -eq 5 -a -f "$tmp/path/path_00004.png"
+# The ends of a path are the key frames themselves.
+"$gaussvid" metrics "$tmp/path/path_00000.png" "$tmp/list/frame_00000.png" --json > "$tmp/m.json"
+check "path starts at the first key" grep -q '"identical":true' "$tmp/m.json"
+
+# Bad inputs: one line naming the file or the problem, exit 1.
+size=$(stat -c %s "$tmp/a.ply")
+head -c $((size - 100)) "$tmp/a.ply" > "$tmp/truncated.ply"
+"$gaussvid" splat eval --model "$tmp/truncated.ply" --scene "$scene" --interval 4 > /dev/null 2> "$tmp/err.txt"
+check "truncated model exits 1" test $? -eq 1
+check "truncated model named" grep -q "truncated.ply" "$tmp/err.txt"
+check "one error line" test "$(wc -l < "$tmp/err.txt")" -eq 1
+printf 'ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nend_header\n' > "$tmp/bad.ply"
+"$gaussvid" splat render --model "$tmp/bad.ply" --scene "$scene" --out "$tmp/bad" > /dev/null 2> "$tmp/err.txt"
+check "malformed model exits 1" test $? -eq 1
+check "malformed model named" grep -q "bad.ply" "$tmp/err.txt"
+"$gaussvid" splat train --scene "$scene" --interval 12 --iters 10 --out "$tmp/x.ply" --quiet > /dev/null 2> "$tmp/err.txt"
+check "too few frames exits 1" test $? -eq 1
+check "too few frames explained" grep -q "interval 12 leaves 1 training frame" "$tmp/err.txt"
+check "no model written" test ! -e "$tmp/x.ply"
+"$gaussvid" splat eval --model "$tmp/a.ply" --scene "$scene" --interval 20 > /dev/null 2> "$tmp/err.txt"
+check "eval too few frames exits 1" test $? -eq 1
+"$gaussvid" splat train --scene "$tmp/nowhere" --out "$tmp/x.ply" > /dev/null 2> "$tmp/err.txt"
+check "missing scene exits 1" test $? -eq 1
+check "missing scene named" grep -q "nowhere" "$tmp/err.txt"
+"$gaussvid" splat render --model "$tmp/a.ply" --scene "$scene" --frames 0,99 --out "$tmp/bad" > /dev/null 2> "$tmp/err.txt"
+check "frame out of range exits 1" test $? -eq 1
+check "frame out of range explained" grep -q "0..11" "$tmp/err.txt"
+
+# Usage errors exit 2; --help exits 0.
+"$gaussvid" splat train --scene "$scene" --out "$tmp/x.ply" --white-bg --random-bg 2> /dev/null
+check "two backgrounds exit 2" test $? -eq 2
+"$gaussvid" splat train --out "$tmp/x.ply" 2> /dev/null
+check "missing --scene exits 2" test $? -eq 2
+"$gaussvid" splat eval --model "$tmp/a.ply" --scene "$scene" 2> /dev/null
+check "missing --interval exits 2" test $? -eq 2
+for c in train render eval; do
+    "$gaussvid" splat $c --help > "$tmp/help.txt"
+    check "splat $c --help" grep -q "usage: gaussvid splat $c" "$tmp/help.txt"
+done
+
+echo "$passed passed, $failed failed"
+test "$failed" -eq 0
