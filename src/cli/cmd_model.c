@@ -357,6 +357,7 @@ static int cmd_model_inspect(int argc, char **argv)
 
 static const gv_subcommand model_commands[] = {
     {"inspect", cmd_model_inspect, "parameter counts per module; check weight files against a config"},
+    {"run", cmd_model_run, "one forward pass of a network part on named input tensors"},
 };
 
 int cmd_model(int argc, char **argv)
