@@ -14,6 +14,8 @@ static const gv_subcommand commands[] = {
     {"st", cmd_st, "safetensors files: check one and list its tensors and metadata (inspect)"},
     {"model", cmd_model, "restoration network: parameter counts and weight checks (inspect)"},
     {"bench", cmd_bench, "benchmarks: tensor engine (nn)"},
+    {"dataset", cmd_dataset, "paired clip dataset: build (artifact simulation), stats, show"},
+    {"vae", cmd_vae, "the restoration network's VAE: train on scene frames, evaluate reconstruction"},
 };
 static const int n_commands = sizeof commands / sizeof commands[0];
 

@@ -1,0 +1,120 @@
+/* gaussvid dataset stats DIR [--json]: clips per n and split, and the baseline quality of the
+ * corrupted frames per n (mean over every held-out frame of every scene at that n). */
+#include <cjson/cJSON.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "cli/commands.h"
+#include "gaussvid/core.h"
+#include "gaussvid/dataset.h"
+
+/* The totals over every n (frame-weighted means, like each row's). */
+static gv_dataset_stats_row total_row(const gv_dataset_stats *s)
+{
+    gv_dataset_stats_row t = {0};
+    double seconds = 0;
+    for (int i = 0; i < s->n_rows; i++) {
+        const gv_dataset_stats_row *r = &s->rows[i];
+        t.clips_train += r->clips_train, t.clips_eval += r->clips_eval, t.runs += r->runs;
+        t.frames += r->frames;
+        t.psnr += r->psnr * r->frames, t.ssim += r->ssim * r->frames;
+        seconds += r->seconds * r->runs;
+    }
+    if (t.frames) t.psnr /= t.frames, t.ssim /= t.frames;
+    if (t.runs) t.seconds = seconds / t.runs;
+    return t;
+}
+
+static cJSON *row_json(const gv_dataset_stats_row *r, int with_n)
+{
+    cJSON *o = cJSON_CreateObject();
+    if (with_n) cJSON_AddNumberToObject(o, "n", r->n);
+    cJSON_AddNumberToObject(o, "clips_train", r->clips_train);
+    cJSON_AddNumberToObject(o, "clips_eval", r->clips_eval);
+    cJSON_AddNumberToObject(o, "runs", r->runs);
+    cJSON_AddNumberToObject(o, "frames", r->frames);
+    cJSON_AddNumberToObject(o, "psnr", r->psnr);
+    cJSON_AddNumberToObject(o, "ssim", r->ssim);
+    cJSON_AddNumberToObject(o, "seconds_per_run", r->seconds);
+    return o;
+}
+
+static int print_json(const char *dir, const gv_dataset_stats *s)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "dataset", dir);
+    cJSON *p = cJSON_AddObjectToObject(root, "params");
+    cJSON_AddNumberToObject(p, "iters", s->params.iters);
+    cJSON_AddNumberToObject(p, "anchor_gap", s->params.anchor_gap);
+    cJSON_AddStringToObject(p, "sampling", gv_sampling_name(s->params.sampling));
+    cJSON_AddNumberToObject(p, "clips_per_run", s->params.clips_per_run);
+    cJSON_AddNumberToObject(p, "seed", (double)s->params.seed);
+    cJSON_AddNumberToObject(p, "downscale", s->params.downscale);
+    cJSON_AddNumberToObject(root, "scenes", s->n_scenes);
+    cJSON_AddNumberToObject(root, "runs", s->n_runs);
+    cJSON_AddNumberToObject(root, "clips", s->n_clips);
+    cJSON *rows = cJSON_AddArrayToObject(root, "per_n");
+    for (int i = 0; i < s->n_rows; i++) cJSON_AddItemToArray(rows, row_json(&s->rows[i], 1));
+    gv_dataset_stats_row t = total_row(s);
+    cJSON_AddItemToObject(root, "all", row_json(&t, 0));
+    char *text = cJSON_Print(root);
+    cJSON_Delete(root);
+    if (!text) return gv_fail("out of memory");
+    printf("%s\n", text);
+    free(text);
+    return 0;
+}
+
+static void print_row(const char *n, const gv_dataset_stats_row *r)
+{
+    printf("%5s %12d %11d %5d %8d %14.2f %14.4f %8.1f\n", n, r->clips_train, r->clips_eval,
+           r->runs, r->frames, r->psnr, r->ssim, r->seconds);
+}
+
+static void print_text(const char *dir, const gv_dataset_stats *s)
+{
+    printf("dataset %s: %d clips from %d runs of %d scenes\n", dir, s->n_clips, s->n_runs, s->n_scenes);
+    printf("built with --iters %d --anchor-gap %d --sampling %s --clips-per-run %d --seed %llu "
+           "--downscale %d\n\n", s->params.iters, s->params.anchor_gap,
+           gv_sampling_name(s->params.sampling), s->params.clips_per_run,
+           (unsigned long long)s->params.seed, s->params.downscale);
+    printf("%5s %12s %11s %5s %8s %14s %14s %8s\n", "n", "clips train", "clips eval", "runs",
+           "frames", "baseline PSNR", "baseline SSIM", "s/run");
+    for (int i = 0; i < s->n_rows; i++) {
+        char n[16];
+        snprintf(n, sizeof n, "%d", s->rows[i].n);
+        print_row(n, &s->rows[i]);
+    }
+    gv_dataset_stats_row t = total_row(s);
+    print_row("all", &t);
+    printf("\nframes: held-out frames scored; baseline: mean PSNR (dB) and SSIM of their corrupted\n"
+           "renders against the ground truth, over every frame of every scene at that n.\n");
+}
+
+int cmd_dataset_stats(int argc, char **argv)
+{
+    int json = 0;
+    const gv_flag flags[] = {
+        {"json", GV_FLAG_BOOL, &json, NULL, "print JSON instead of a table", 0},
+    };
+    const gv_command_spec spec = {
+        "dataset stats", "DIR", "clips per n and split, baseline PSNR/SSIM of the corrupted frames",
+        "Reads DIR/manifest.json and the run records under DIR/runs/.", flags,
+        sizeof flags / sizeof flags[0], 1, 1};
+    char *positional[1];
+    int n_positional;
+    int parsed = gv_args_parse(&spec, argc, argv, positional, &n_positional);
+    if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
+    gv_dataset_stats *s = malloc(sizeof *s);
+    if (!s) {
+        gv_fail("out of memory");
+        return gv_report_failure();
+    }
+    int rc = gv_dataset_stats_read(positional[0], s);
+    if (rc == 0) {
+        if (json) rc = print_json(positional[0], s);
+        else print_text(positional[0], s);
+    }
+    free(s);
+    return rc == 0 ? 0 : gv_report_failure();
+}

@@ -1,0 +1,272 @@
+/* `dataset build` (paper section 3.2; DESIGN.md section 8): every scene at every interval n,
+ * resumable. Every scene and interval is checked before anything is trained; finished runs
+ * (listed in the manifest, with their clips and record present) are skipped; temporaries left
+ * by a killed build are removed; the options must match those of the runs already built. */
+#include <dirent.h>
+#include <errno.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "data/build_internal.h"
+
+void gv_dataset_default_params(gv_dataset_params *p)
+{
+    memset(p, 0, sizeof *p);
+    p->iters = 8000;        /* paper 3.2: "terminating the optimization early at 8,000" */
+    p->anchor_gap = 1;
+    p->clips_per_run = 4;
+    p->downscale = 1;
+    p->sampling = GV_SAMPLING_UNIFORM;
+    p->seed = 0;
+}
+
+uint64_t gv_run_seed(uint64_t seed, const char *scene, int n)
+{
+    uint64_t h = 1469598103934665603ull; /* FNV-1a 64 of the scene name */
+    for (const unsigned char *p = (const unsigned char *)scene; *p; p++) h = (h ^ *p) * 1099511628211ull;
+    uint32_t out[4];
+    gv_philox4x32(seed, h ^ ((uint64_t)(uint32_t)n << 32 | (uint32_t)n), out);
+    return (uint64_t)out[1] << 32 | out[0];
+}
+
+int gv_scene_name_of(const char *dir, char *out, size_t size)
+{
+    char path[PATH_MAX];
+    if (!gv_dir_exists(dir)) return gv_fail("%s: no such scene folder", dir);
+    if (snprintf(path, sizeof path, "%s", dir) >= (int)sizeof path) return gv_fail("%s: path too long", dir);
+    size_t len = strlen(path);
+    while (len > 1 && path[len - 1] == '/') path[--len] = '\0';
+    const char *slash = strrchr(path, '/');
+    const char *name = slash ? slash + 1 : path;
+    /* "." and ".." name no scene: use the folder they stand for (symbolic links keep the
+     * name they were given otherwise). */
+    if (!strcmp(name, ".") || !strcmp(name, "..") || !name[0]) {
+        if (!realpath(dir, path)) return gv_fail("%s: cannot resolve: %s", dir, strerror(errno));
+        slash = strrchr(path, '/');
+        name = slash ? slash + 1 : path;
+    }
+    if (!name[0] || strlen(name) >= size || strlen(name) >= GV_SCENE_NAME_MAX)
+        return gv_fail("%s: the folder name '%s' cannot name a scene (empty or over %d bytes)",
+                       dir, name, GV_SCENE_NAME_MAX - 1);
+    snprintf(out, size, "%s", name);
+    return 0;
+}
+
+static int check_params(const gv_dataset_params *p)
+{
+    if (p->iters < 1) return gv_fail("iterations %d: must be at least 1", p->iters);
+    if (p->clips_per_run < 1 || p->clips_per_run > 100000)
+        return gv_fail("clips per run %d: must be in 1..100000", p->clips_per_run);
+    if (p->anchor_gap < 1) return gv_fail("anchor gap %d: must be at least 1", p->anchor_gap);
+    if (p->downscale != 1 && p->downscale != 2 && p->downscale != 4 && p->downscale != 8)
+        return gv_fail("downscale %d: expected 1, 2, 4 or 8", p->downscale);
+    if ((unsigned)p->sampling > GV_SAMPLING_RELEASED) return gv_fail("unknown sampling %d", (int)p->sampling);
+    return 0;
+}
+
+/* The options of a folder's existing runs must be this build's: one dataset, one recipe. */
+static int same_params(const char *dir, const gv_dataset_params *old, const gv_dataset_params *now)
+{
+    char a[200], b[200];
+    snprintf(a, sizeof a, "--iters %d --anchor-gap %d --sampling %s --clips-per-run %d --seed %llu "
+             "--downscale %d", old->iters, old->anchor_gap, gv_sampling_name(old->sampling),
+             old->clips_per_run, (unsigned long long)old->seed, old->downscale);
+    snprintf(b, sizeof b, "--iters %d --anchor-gap %d --sampling %s --clips-per-run %d --seed %llu "
+             "--downscale %d", now->iters, now->anchor_gap, gv_sampling_name(now->sampling),
+             now->clips_per_run, (unsigned long long)now->seed, now->downscale);
+    if (strcmp(a, b))
+        return gv_fail("%s/manifest.json: the dataset was built with %s; this build asks for %s "
+                       "(use another --out folder)", dir, a, b);
+    return 0;
+}
+
+/* Removes the temporaries (name.tmp.<pid>) that a killed writer left in dir. Those of a
+ * process still running are left alone: it may be another build writing here. */
+static int remove_stale_temporaries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    int removed = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        const char *tmp = strstr(e->d_name, ".tmp.");
+        char *end;
+        if (!tmp) continue;
+        long pid = strtol(tmp + 5, &end, 10);
+        if (*end || end == tmp + 5 || pid <= 0 || pid == (long)getpid()) continue;
+        if (kill((pid_t)pid, 0) == 0 || errno == EPERM) continue;
+        char path[4096];
+        if (gv_path_join(path, sizeof path, dir, e->d_name) == 0 && unlink(path) == 0) removed++;
+    }
+    closedir(d);
+    return removed;
+}
+
+static int prepare_out_dir(const char *out)
+{
+    static const char *subdirs[] = {"", "clips", "runs"};
+    for (int i = 0; i < 3; i++) {
+        char path[4096];
+        if (gv_path_join(path, sizeof path, out, subdirs[i]) != 0 || gv_mkdirs(path) != 0) return -1;
+        int removed = remove_stale_temporaries(path);
+        if (removed) gv_info("%s: removed %d temporary file(s) left by an interrupted build", path, removed);
+    }
+    return 0;
+}
+
+typedef struct {
+    gv_scene *scenes;
+    char (*names)[GV_SCENE_NAME_MAX];
+    const char **splits;
+    int n;
+} scene_set;
+
+static void scenes_free(scene_set *s)
+{
+    for (int i = 0; s->scenes && i < s->n; i++) gv_scene_free(&s->scenes[i]);
+    free(s->scenes), free(s->names), free(s->splits);
+}
+
+/* Loads every scene (cameras only), names it, splits it, checks every interval on it. */
+static int load_scenes(const gv_dataset_build_options *opt, scene_set *s)
+{
+    memset(s, 0, sizeof *s);
+    s->scenes = calloc((size_t)opt->n_scenes, sizeof *s->scenes);
+    s->names = calloc((size_t)opt->n_scenes, sizeof *s->names);
+    s->splits = calloc((size_t)opt->n_scenes, sizeof *s->splits);
+    if (!s->scenes || !s->names || !s->splits) return gv_fail("out of memory for %d scenes", opt->n_scenes);
+    gv_scene_options so = {.downscale = opt->params.downscale};
+    for (int i = 0; i < opt->n_scenes; i++) {
+        const char *dir = opt->scene_dirs[i];
+        if (gv_scene_name_of(dir, s->names[i], sizeof s->names[i]) != 0) return -1;
+        for (int j = 0; j < i; j++)
+            if (!strcmp(s->names[i], s->names[j]))
+                return gv_fail("%s: scene name '%s' is also that of %s (scenes are named by their "
+                               "folder)", dir, s->names[i], opt->scene_dirs[j]);
+        if (gv_scene_load(dir, &so, &s->scenes[i]) != 0) return -1;
+        s->n = i + 1;
+        s->splits[i] = "train";
+        for (int e = 0; e < opt->n_eval_scenes; e++)
+            if (!strcmp(opt->eval_scenes[e], s->names[i])) s->splits[i] = "eval";
+        for (int k = 0; k < opt->n_intervals; k++)
+            if (gv_clip_check_interval(s->scenes[i].n_frames, opt->intervals[k], opt->params.anchor_gap))
+                return gv_fail_context("%s", dir);
+    }
+    for (int e = 0; e < opt->n_eval_scenes; e++) {
+        int found = 0;
+        for (int i = 0; i < s->n; i++) found |= !strcmp(opt->eval_scenes[e], s->names[i]);
+        if (!found) return gv_fail("eval scene '%s' is not one of the scenes given", opt->eval_scenes[e]);
+    }
+    return 0;
+}
+
+/* 1 when the manifest lists the run and its clips and record exist; fails when it lists the
+ * run under the other split. */
+static int run_is_complete(const char *out, const gv_manifest *m, const char *name, int n,
+                           const char *split, int *complete)
+{
+    *complete = 0;
+    int r = gv_manifest_find_run(m, name, n);
+    if (r < 0) return 0;
+    if (strcmp(m->runs[r].split, split))
+        return gv_fail("%s/manifest.json: %s n=%d was built in the %s split, this build puts it in "
+                       "%s (use another --out folder)", out, name, n, m->runs[r].split, split);
+    char file[GV_SCENE_NAME_MAX + 32], path[4096];
+    if (gv_run_file_name(file, sizeof file, name, n) || gv_path_join(path, sizeof path, out, file))
+        return -1;
+    if (!gv_file_exists(path)) return 0;
+    int clips = 0;
+    for (int i = 0; i < m->n_clips; i++) {
+        const gv_manifest_clip *c = &m->clips[i];
+        if (c->n != n || strcmp(c->scene, name)) continue;
+        if (gv_path_join(path, sizeof path, out, c->file) != 0 || !gv_file_exists(path)) return 0;
+        clips++;
+    }
+    *complete = clips == m->runs[r].n_clips;
+    return 0;
+}
+
+static void format_time(char *out, size_t size, double seconds)
+{
+    long s = (long)(seconds + 0.5);
+    snprintf(out, size, "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
+}
+
+/* Runs every (scene, n) not yet complete; one line of overall progress per run. */
+static int build_runs(const gv_dataset_build_options *opt, const scene_set *s, gv_manifest *m,
+                      gv_dataset_build_result *result)
+{
+    int total = s->n * opt->n_intervals;
+    uint8_t *complete = calloc((size_t)total, 1);
+    if (!complete) return gv_fail("out of memory for %d runs", total);
+    result->runs_total = total;
+    for (int r = 0; r < total; r++) {
+        int c, i = r / opt->n_intervals, n = opt->intervals[r % opt->n_intervals];
+        if (run_is_complete(opt->out_dir, m, s->names[i], n, s->splits[i], &c) != 0) {
+            free(complete);
+            return -1;
+        }
+        complete[r] = (uint8_t)c;
+        result->runs_skipped += c;
+    }
+    int todo = total - result->runs_skipped;
+    gv_info("dataset: %d runs (%d scenes x %d intervals): %d already built, %d to build", total,
+            s->n, opt->n_intervals, result->runs_skipped, todo);
+    double start = gv_now();
+    for (int r = 0; r < total; r++) {
+        if (complete[r]) continue;
+        int i = r / opt->n_intervals, n = opt->intervals[r % opt->n_intervals];
+        gv_info("dataset: run %d/%d: %s n=%d (%s split)", result->runs_built + 1, todo,
+                s->names[i], n, s->splits[i]);
+        data_run run = {&s->scenes[i], s->names[i], s->splits[i], n, &opt->params,
+                        opt->simulator ? opt->simulator : &gv_artifact_3dgs, opt->out_dir};
+        gv_run_record rec;
+        if (data_build_run(&run, m, &rec) != 0) {
+            free(complete);
+            return -1;
+        }
+        result->runs_built++;
+        result->clips_written += rec.n_clips;
+        double elapsed = gv_now() - start;
+        char elapsed_text[32], eta_text[32];
+        format_time(elapsed_text, sizeof elapsed_text, elapsed);
+        format_time(eta_text, sizeof eta_text, elapsed / result->runs_built * (todo - result->runs_built));
+        gv_info("dataset: %d/%d runs built; %s n=%d: %d clips, baseline PSNR %.2f dB SSIM %.4f over "
+                "%d held-out frames, %.1f s; elapsed %s, eta %s", result->runs_built, todo,
+                s->names[i], n, rec.n_clips, rec.psnr_mean, rec.ssim_mean, rec.n_held_out,
+                rec.seconds, elapsed_text, eta_text);
+        gv_run_record_free(&rec);
+    }
+    free(complete);
+    return 0;
+}
+
+int gv_dataset_build(const gv_dataset_build_options *opt, gv_dataset_build_result *result)
+{
+    memset(result, 0, sizeof *result);
+    double start = gv_now();
+    if (opt->n_scenes < 1) return gv_fail("dataset build: no scene given");
+    if (opt->n_intervals < 1) return gv_fail("dataset build: no interval given");
+    if (!opt->out_dir || !opt->out_dir[0]) return gv_fail("dataset build: no output folder given");
+    if (check_params(&opt->params) != 0) return -1;
+    scene_set scenes;
+    gv_manifest m;
+    int found, rc = -1;
+    gv_manifest_init(&m, NULL);
+    if (load_scenes(opt, &scenes) != 0 || prepare_out_dir(opt->out_dir) != 0 ||
+        gv_manifest_read(opt->out_dir, &m, &found) != 0)
+        goto done;
+    /* A folder without a finished run takes this build's options. */
+    if (found && m.n_runs > 0 && same_params(opt->out_dir, &m.params, &opt->params) != 0) goto done;
+    m.params = opt->params;
+    if (m.n_runs == 0 && gv_manifest_write(opt->out_dir, &m) != 0) goto done; /* marks the folder */
+    rc = build_runs(opt, &scenes, &m, result);
+done:
+    result->seconds = gv_now() - start;
+    gv_manifest_free(&m);
+    scenes_free(&scenes);
+    return rc;
+}

@@ -1,0 +1,212 @@
+/* One (scene, n) run of `dataset build` (paper section 3.2): train the degraded model on the
+ * sparse views, render and score every held-out frame, write the sampled clips and the run
+ * record, then commit the run to the manifest. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "data/build_internal.h"
+#include "gaussvid/metrics.h"
+
+/* Frames of the scene the clips use: their ground truth and, for held-out ones, the render. */
+typedef struct {
+    int n_frames;
+    uint8_t *needed;
+    gv_image *truth, *renders;
+} frame_cache;
+
+static void cache_free(frame_cache *c)
+{
+    for (int i = 0; c->truth && c->renders && i < c->n_frames; i++) {
+        gv_image_free(&c->truth[i]);
+        gv_image_free(&c->renders[i]);
+    }
+    free(c->needed), free(c->truth), free(c->renders);
+}
+
+static int cache_init(frame_cache *c, int n_frames, int (*clips)[GV_CLIP_FRAMES], int n_clips)
+{
+    memset(c, 0, sizeof *c);
+    c->n_frames = n_frames;
+    c->needed = calloc((size_t)n_frames, 1);
+    c->truth = calloc((size_t)n_frames, sizeof *c->truth);
+    c->renders = calloc((size_t)n_frames, sizeof *c->renders);
+    if (!c->needed || !c->truth || !c->renders) return gv_fail("out of memory for %d frames", n_frames);
+    for (int k = 0; k < n_clips; k++)
+        for (int f = 0; f < GV_CLIP_FRAMES; f++) c->needed[clips[k][f]] = 1;
+    return 0;
+}
+
+/* Renders every held-out frame, scores it against its ground truth, keeps the clip frames. */
+static int render_held_out(const data_run *run, void *model, frame_cache *cache,
+                           gv_run_record *rec)
+{
+    const gv_artifact_simulator *sim = run->simulator;
+    gv_progress bar;
+    char label[48];
+    snprintf(label, sizeof label, "render n=%d", run->n);
+    gv_progress_start(&bar, label, rec->n_held_out);
+    for (int i = 0; i < rec->n_held_out; i++) {
+        int f = rec->held_out[i];
+        gv_image render = {0}, truth = {0};
+        if (sim->render(sim->ctx, model, run->scene, f, &render) != 0 ||
+            gv_scene_load_image(run->scene, f, &truth) != 0 ||
+            gv_image_psnr_ssim(&render, &truth, &rec->psnr[i], &rec->ssim[i]) != 0) {
+            gv_image_free(&render), gv_image_free(&truth);
+            return gv_fail_context("%s: held-out frame %d", run->name, f);
+        }
+        if (cache->needed[f]) {
+            cache->renders[f] = render;
+            cache->truth[f] = truth;
+        } else {
+            gv_image_free(&render), gv_image_free(&truth);
+        }
+        gv_progress_update(&bar, i + 1, "%s", "");
+    }
+    gv_progress_finish(&bar);
+    for (int f = 0; f < cache->n_frames; f++) /* the anchors: clean training views */
+        if (cache->needed[f] && !cache->truth[f].pixels &&
+            gv_scene_load_image(run->scene, f, &cache->truth[f]) != 0)
+            return -1;
+    gv_run_record_summarise(rec);
+    return 0;
+}
+
+static int write_clip(const data_run *run, const int *frames, const frame_cache *cache,
+                      const char *path)
+{
+    const gv_camera *cams = run->scene->cameras;
+    gv_clip_info info;
+    memset(&info, 0, sizeof info);
+    snprintf(info.scene, sizeof info.scene, "%s", run->name);
+    snprintf(info.split, sizeof info.split, "%s", run->split);
+    info.n = run->n;
+    info.anchor_gap = run->params->anchor_gap;
+    info.iters = run->params->iters;
+    info.sampling = run->params->sampling;
+    info.seed = run->params->seed;
+    info.width = cams[frames[0]].width;
+    info.height = cams[frames[0]].height;
+    gv_clip clip;
+    if (gv_clip_alloc(&clip, &info) != 0) return -1;
+    size_t bytes = (size_t)info.width * info.height * 3;
+    int rc = 0;
+    for (int i = 0; i < GV_CLIP_FRAMES && rc == 0; i++) {
+        int f = frames[i];
+        const gv_image *input = (i == 0 || i == GV_CLIP_FRAMES - 1) ? &cache->truth[f] : &cache->renders[f];
+        if (input->width != info.width || input->height != info.height ||
+            cache->truth[f].width != info.width || cache->truth[f].height != info.height) {
+            rc = gv_fail("%s: frame %d is %dx%d, the clip's first frame %dx%d: a clip needs one size",
+                         run->name, f, cache->truth[f].width, cache->truth[f].height, info.width, info.height);
+            break;
+        }
+        clip.info.frames[i] = f;
+        snprintf(clip.info.frame_names[i], sizeof clip.info.frame_names[i], "%s", cams[f].name);
+        memcpy(gv_clip_frame(clip.inputs, &info, i), input->pixels, bytes);
+        memcpy(gv_clip_frame(clip.targets, &info, i), cache->truth[f].pixels, bytes);
+        gv_clip_set_camera(&clip, i, &cams[f]);
+    }
+    if (rc == 0) rc = gv_clip_write(path, &clip);
+    gv_clip_free(&clip);
+    return rc;
+}
+
+/* Writes the clips and fills their manifest entries. */
+static int write_clips(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int n_clips,
+                       const frame_cache *cache, gv_manifest_clip *entries)
+{
+    for (int k = 0; k < n_clips; k++) {
+        gv_manifest_clip *e = &entries[k];
+        char path[4096];
+        memset(e, 0, sizeof *e);
+        if (gv_clip_file_name(e->file, sizeof e->file, run->name, run->n, k) != 0 ||
+            gv_path_join(path, sizeof path, run->out_dir, e->file) != 0 ||
+            write_clip(run, frames[k], cache, path) != 0)
+            return -1;
+        snprintf(e->scene, sizeof e->scene, "%s", run->name);
+        snprintf(e->split, sizeof e->split, "%s", run->split);
+        e->n = run->n;
+        memcpy(e->frames, frames[k], sizeof e->frames);
+    }
+    return 0;
+}
+
+/* Samples the clips and fills the record's identity and held-out frames. */
+static int plan_run(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int *n_clips,
+                    gv_run_record *rec)
+{
+    int n_frames = run->scene->n_frames;
+    int *train = malloc((size_t)n_frames * sizeof *train);
+    int *held_out = malloc((size_t)n_frames * sizeof *held_out);
+    int n_train = 0, n_held = 0, rc = -1;
+    uint64_t seed = gv_run_seed(run->params->seed, run->name, run->n);
+    if (!train || !held_out) gv_fail("out of memory for %d frames", n_frames);
+    else if (gv_scene_split(n_frames, run->n, train, &n_train, held_out, &n_held) == 0 &&
+             gv_sample_clips(n_frames, run->n, run->params->anchor_gap, run->params->sampling,
+                             run->params->clips_per_run, seed ^ 0x9E3779B97F4A7C15ull, frames,
+                             n_clips) == 0 &&
+             gv_run_record_alloc(rec, n_held) == 0)
+        rc = 0;
+    if (rc == 0) {
+        memcpy(rec->held_out, held_out, (size_t)n_held * sizeof *held_out);
+        snprintf(rec->scene, sizeof rec->scene, "%s", run->name);
+        snprintf(rec->split, sizeof rec->split, "%s", run->split);
+        rec->n = run->n;
+        rec->iters = run->params->iters;
+        rec->n_train = n_train;
+        rec->n_clips = *n_clips;
+    }
+    free(train), free(held_out);
+    return rc ? gv_fail_context("%s: n=%d", run->name, run->n) : 0;
+}
+
+static int commit_run(const data_run *run, gv_run_record *rec, gv_manifest_clip *entries,
+                      gv_manifest *m)
+{
+    char name[GV_SCENE_NAME_MAX + 32], path[4096];
+    if (gv_run_file_name(name, sizeof name, run->name, run->n) != 0 ||
+        gv_path_join(path, sizeof path, run->out_dir, name) != 0 ||
+        gv_run_record_write(path, rec) != 0)
+        return -1;
+    gv_manifest_run entry;
+    memset(&entry, 0, sizeof entry);
+    snprintf(entry.scene, sizeof entry.scene, "%s", run->name);
+    snprintf(entry.split, sizeof entry.split, "%s", run->split);
+    entry.n = run->n;
+    entry.n_clips = rec->n_clips;
+    entry.seconds = rec->seconds;
+    if (gv_manifest_add_run(m, &entry, entries, rec->n_clips) != 0) return -1;
+    return gv_manifest_write(run->out_dir, m);
+}
+
+int data_build_run(const data_run *run, gv_manifest *m, gv_run_record *rec)
+{
+    double start = gv_now();
+    int k = run->params->clips_per_run, n_clips = 0, rc = -1;
+    int (*frames)[GV_CLIP_FRAMES] = calloc((size_t)k, sizeof *frames);
+    gv_manifest_clip *entries = calloc((size_t)k, sizeof *entries);
+    frame_cache cache = {0};
+    void *model = NULL;
+    memset(rec, 0, sizeof *rec);
+    if (!frames || !entries) { gv_fail("out of memory for %d clips", k); goto done; }
+    if (plan_run(run, frames, &n_clips, rec) != 0 ||
+        cache_init(&cache, run->scene->n_frames, frames, n_clips) != 0)
+        goto done;
+    const gv_artifact_simulator *sim = run->simulator;
+    if (sim->train(sim->ctx, run->scene, run->n, run->params->iters,
+                   gv_run_seed(run->params->seed, run->name, run->n), &model) != 0) {
+        gv_fail_context("%s: n=%d: %s", run->name, run->n, sim->name);
+        goto done;
+    }
+    rec->train_seconds = gv_now() - start;
+    if (render_held_out(run, model, &cache, rec) != 0) goto done;
+    rec->render_seconds = gv_now() - start - rec->train_seconds;
+    if (write_clips(run, frames, n_clips, &cache, entries) != 0) goto done;
+    rec->seconds = gv_now() - start;
+    rc = commit_run(run, rec, entries, m);
+done:
+    if (model) run->simulator->free_model(run->simulator->ctx, model);
+    cache_free(&cache);
+    free(frames), free(entries);
+    if (rc != 0) gv_run_record_free(rec);
+    return rc;
+}
