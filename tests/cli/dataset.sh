@@ -4,30 +4,8 @@
 # Builds on two tiny synthesised scenes with sparse 3DGS stopped after a few iterations, on
 # one thread (the same thread count gives the same clips; tiny images gain nothing from more).
 # Usage: bash dataset.sh /path/to/gaussvid   ($GV_TMP scratch)
-G=${1:?usage: dataset.sh /path/to/gaussvid}
-T=${GV_TMP:-/tmp/gaussvid-cli-dataset}
-rm -rf "$T" && mkdir -p "$T"
-passed=0
-failed=0
-
-ok() { passed=$((passed + 1)); }
-bad() { failed=$((failed + 1)); echo "FAILED: $*" >&2; }
-
-# expect CODE DESCRIPTION -- command...: runs it, keeps stdout/stderr in $T/out, $T/err.
-expect() {
-    local code=$1 what=$2
-    shift 3
-    "$@" >"$T/out" 2>"$T/err"
-    local rc=$?
-    if [ "$rc" -eq "$code" ]; then ok; else bad "$what: exit $rc, expected $code: $(head -c 300 "$T/err")"; fi
-}
-# one_line NEEDLE: stderr is exactly one line and mentions NEEDLE.
-one_line() {
-    if [ "$(wc -l <"$T/err")" -eq 1 ] && grep -qF -- "$1" "$T/err"; then ok
-    else bad "expected one line mentioning '$1', got: $(cat "$T/err")"; fi
-}
-has() { if grep -qF -- "$1" "$T/out"; then ok; else bad "output lacks '$1'"; fi; }
-exists() { if [ -f "$1" ]; then ok; else bad "missing file $1"; fi; }
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup dataset "$1"
 # png_size FILE: "W H" from the IHDR chunk.
 png_size() { od -An -tu1 -j16 -N8 "$1" | awk '{print $3 * 256 + $4, $7 * 256 + $8}'; }
 
@@ -120,5 +98,4 @@ if [ ! -e "$T/bad.png" ]; then ok; else bad "a sheet was written for a bad clip"
 expect 1 "show a missing clip" -- "$G" dataset show "$T/none.safetensors" --out "$T/none.png"
 one_line "none.safetensors"
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+cli_finish

@@ -4,15 +4,8 @@
 # The PNGs are written here byte by byte (stored deflate blocks, CRC-32 and Adler-32
 # computed in bash), so the test does not depend on any image tool or on libpng's writer.
 set -u
-GV="$1"
-DIR="${GV_TMP:-/tmp/gaussvid-cli-metrics}"
-rm -rf "$DIR" && mkdir -p "$DIR" || exit 1
-passed=0
-failed=0
-
-check() { # check "description" condition-exit-status
-    if [ "$2" -eq 0 ]; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: $1"; fi
-}
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup metrics "$1"
 
 crc32() { # CRC-32 (PNG, ISO 3309) of the decimal bytes given as arguments
     local crc=$((0xFFFFFFFF)) b k
@@ -70,73 +63,72 @@ for ((i = 0; i < 64; i++)); do
 done
 grey_one=("${grey[@]}")
 grey_one[0]=255 # was 0
-write_png "$DIR/grey.png" 8 8 0 1 "${grey[@]}"
-write_png "$DIR/rgb.png" 8 8 2 3 "${rgb[@]}"
-write_png "$DIR/rgba.png" 8 8 6 4 "${rgba[@]}"
-write_png "$DIR/grey_one.png" 8 8 0 1 "${grey_one[@]}"
-write_png "$DIR/small.png" 7 8 0 1 "${grey[@]:0:56}"
-head -c 60 "$DIR/rgb.png" >"$DIR/cut.png"
-echo "not an image" >"$DIR/notes.png"
+write_png "$T/grey.png" 8 8 0 1 "${grey[@]}"
+write_png "$T/rgb.png" 8 8 2 3 "${rgb[@]}"
+write_png "$T/rgba.png" 8 8 6 4 "${rgba[@]}"
+write_png "$T/grey_one.png" 8 8 0 1 "${grey_one[@]}"
+write_png "$T/small.png" 7 8 0 1 "${grey[@]:0:56}"
+head -c 60 "$T/rgb.png" >"$T/cut.png"
+echo "not an image" >"$T/notes.png"
 
 # Identical images (through three channel layouts): exit 0, null PSNR, SSIM 1.
-out=$("$GV" metrics "$DIR/grey.png" "$DIR/rgb.png" --json)
-check "identical grey/RGB exit 0" $?
+out=$("$G" metrics "$T/grey.png" "$T/rgb.png" --json)
+check_rc "identical grey/RGB exit 0" $?
 [ "$(printf '%s\n' "$out" | wc -l)" -eq 1 ]
-check "JSON is one line on stdout" $?
+check_rc "JSON is one line on stdout" $?
 for key in '"psnr":null' '"ssim":1' '"width":8' '"height":8' '"identical":true'; do
     case "$out" in *"$key"*) r=0 ;; *) r=1 ;; esac
-    check "JSON has $key ($out)" $r
+    check_rc "JSON has $key ($out)" $r
 done
-out=$("$GV" metrics "$DIR/rgba.png" "$DIR/grey.png")
-check "RGBA vs grey exit 0" $?
+out=$("$G" metrics "$T/rgba.png" "$T/grey.png")
+check_rc "RGBA vs grey exit 0" $?
 case "$out" in *"PSNR: inf"*"SSIM: 1.000000"*) r=0 ;; *) r=1 ;; esac
-check "RGBA alpha dropped: identical ($out)" $r
+check_rc "RGBA alpha dropped: identical ($out)" $r
 
 # One value of 64 off by 255/255 in every channel: MSE = 1/64, PSNR = 10 log10 64.
-out=$("$GV" metrics "$DIR/grey.png" "$DIR/grey_one.png")
-check "one pixel differs exit 0" $?
+out=$("$G" metrics "$T/grey.png" "$T/grey_one.png")
+check_rc "one pixel differs exit 0" $?
 case "$out" in *"PSNR: 18.0618 dB"*) r=0 ;; *) r=1 ;; esac
-check "PSNR = 10 log10 64 ($out)" $r
-out=$("$GV" metrics "$DIR/grey.png" "$DIR/grey_one.png" --json)
+check_rc "PSNR = 10 log10 64 ($out)" $r
+out=$("$G" metrics "$T/grey.png" "$T/grey_one.png" --json)
 psnr=$(printf '%s' "$out" | sed -n 's/.*"psnr":\([0-9.eE+-]*\).*/\1/p')
 ssim=$(printf '%s' "$out" | sed -n 's/.*"ssim":\([0-9.eE+-]*\).*/\1/p')
 awk -v p="$psnr" 'BEGIN { exit !(p > 18.06179 && p < 18.06180) }'
-check "JSON psnr 18.0618 ($out)" $?
+check_rc "JSON psnr 18.0618 ($out)" $?
 awk -v s="$ssim" 'BEGIN { exit !(s > 0 && s < 1) }'
-check "JSON ssim in (0, 1) ($out)" $?
+check_rc "JSON ssim in (0, 1) ($out)" $?
 case "$out" in *'"identical":false'*) r=0 ;; *) r=1 ;; esac
-check "JSON identical false" $r
+check_rc "JSON identical false" $r
 
 # Failures: exit 1 and one line naming the file.
 expect_failure() { # expect_failure needle args...
     local needle=$1; shift
-    "$GV" metrics "$@" >"$DIR/out" 2>"$DIR/err"
+    "$G" metrics "$@" >"$T/out" 2>"$T/err"
     local rc=$?
     [ $rc -eq 1 ]
-    check "exit 1 for $* (got $rc)" $?
-    [ "$(wc -l <"$DIR/err")" -eq 1 ] && grep -q -- "$needle" "$DIR/err"
-    check "one line mentioning '$needle' for $*: $(cat "$DIR/err")" $?
-    [ ! -s "$DIR/out" ]
-    check "nothing on stdout for $*" $?
+    check_rc "exit 1 for $* (got $rc)" $?
+    [ "$(wc -l <"$T/err")" -eq 1 ] && grep -q -- "$needle" "$T/err"
+    check_rc "one line mentioning '$needle' for $*: $(cat "$T/err")" $?
+    [ ! -s "$T/out" ]
+    check_rc "nothing on stdout for $*" $?
 }
-expect_failure "cut.png" "$DIR/grey.png" "$DIR/cut.png"
-expect_failure "notes.png" "$DIR/notes.png" "$DIR/grey.png" --json
-expect_failure "missing.png" "$DIR/grey.png" "$DIR/missing.png"
-expect_failure "same size" "$DIR/grey.png" "$DIR/small.png"
+expect_failure "cut.png" "$T/grey.png" "$T/cut.png"
+expect_failure "notes.png" "$T/notes.png" "$T/grey.png" --json
+expect_failure "missing.png" "$T/grey.png" "$T/missing.png"
+expect_failure "same size" "$T/grey.png" "$T/small.png"
 
 # Usage errors: exit 2. Help: exit 0.
 expect_usage() {
-    "$GV" metrics "$@" >/dev/null 2>&1
+    "$G" metrics "$@" >/dev/null 2>&1
     local rc=$?
     [ $rc -eq 2 ]
-    check "usage error exit 2 for '$*' (got $rc)" $?
+    check_rc "usage error exit 2 for '$*' (got $rc)" $?
 }
 expect_usage
-expect_usage "$DIR/grey.png"
-expect_usage "$DIR/grey.png" "$DIR/rgb.png" "$DIR/rgb.png"
-expect_usage "$DIR/grey.png" "$DIR/rgb.png" --bogus
-"$GV" metrics --help | grep -q "identical"
-check "--help exit 0 and documents the JSON" $?
+expect_usage "$T/grey.png"
+expect_usage "$T/grey.png" "$T/rgb.png" "$T/rgb.png"
+expect_usage "$T/grey.png" "$T/rgb.png" --bogus
+"$G" metrics --help | grep -q "identical"
+check_rc "--help exit 0 and documents the JSON" $?
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+cli_finish

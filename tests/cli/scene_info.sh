@@ -2,29 +2,8 @@
 # gaussvid scene info: exit codes (0 ok, 1 bad scene, 2 usage), the text and --json output,
 # and one-line failures for missing folders, missing or wrong images and impossible splits.
 # Usage: bash scene_info.sh /path/to/gaussvid   ($GV_TMP scratch, $GV_SHARED_DATA optional)
-G=${1:?usage: scene_info.sh /path/to/gaussvid}
-T=${GV_TMP:-/tmp/gaussvid-cli-scene-info}
-rm -rf "$T" && mkdir -p "$T"
-passed=0
-failed=0
-
-ok() { passed=$((passed + 1)); }
-bad() { failed=$((failed + 1)); echo "FAILED: $*" >&2; }
-
-# expect CODE DESCRIPTION -- command...: runs it, keeps stdout/stderr in $T/out, $T/err.
-expect() {
-    local code=$1 what=$2
-    shift 3
-    "$@" >"$T/out" 2>"$T/err"
-    local rc=$?
-    if [ "$rc" -eq "$code" ]; then ok; else bad "$what: exit $rc, expected $code: $(head -c 300 "$T/err")"; fi
-}
-# one_line NEEDLE: stderr is exactly one line and mentions NEEDLE.
-one_line() {
-    if [ "$(wc -l <"$T/err")" -eq 1 ] && grep -qF -- "$1" "$T/err"; then ok
-    else bad "expected one line mentioning '$1', got: $(cat "$T/err")"; fi
-}
-has() { if grep -qF -- "$1" "$T/out"; then ok; else bad "output lacks '$1'"; fi; }
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup scene-info "$1"
 
 # A tiny scene: three 4x3 PNG frames and a nerfstudio transforms.json, no points.
 PNG4x3=iVBORw0KGgoAAAANSUhEUgAAAAQAAAADCAIAAAA7ljmRAAAAMklEQVQImQEnANj/AAAlSm+Uud4DKE1ylwC84QYrUHWav+QJLlMAeJ3C5wwxVnugxeoPJKYQD0amMxQAAAAASUVORK5CYII=
@@ -137,5 +116,4 @@ for name in courtyard livingroom; do
     has '"held_out":	140'
 done
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+cli_finish

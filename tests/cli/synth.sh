@@ -3,30 +3,8 @@
 # the same files again for the same seed, 'scene info' on the result, and refusal to
 # overwrite a folder that is not a synthesised scene.
 # Usage: bash synth.sh /path/to/gaussvid   ($GV_TMP scratch)
-G=${1:?usage: synth.sh /path/to/gaussvid}
-T=${GV_TMP:-/tmp/gaussvid-cli-synth}
-rm -rf "$T" && mkdir -p "$T"
-passed=0
-failed=0
-
-ok() { passed=$((passed + 1)); }
-bad() { failed=$((failed + 1)); echo "FAILED: $*" >&2; }
-
-# expect CODE DESCRIPTION -- command...: runs it, keeps stdout/stderr in $T/out, $T/err.
-expect() {
-    local code=$1 what=$2
-    shift 3
-    "$@" >"$T/out" 2>"$T/err"
-    local rc=$?
-    if [ "$rc" -eq "$code" ]; then ok; else bad "$what: exit $rc, expected $code: $(head -c 300 "$T/err")"; fi
-}
-# one_line NEEDLE: stderr is exactly one line and mentions NEEDLE.
-one_line() {
-    if [ "$(wc -l <"$T/err")" -eq 1 ] && grep -qF -- "$1" "$T/err"; then ok
-    else bad "expected one line mentioning '$1', got: $(cat "$T/err")"; fi
-}
-has() { if grep -qF -- "$1" "$T/out"; then ok; else bad "output lacks '$1'"; fi; }
-exists() { if [ -e "$1" ]; then ok; else bad "missing $1"; fi; }
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup synth "$1"
 
 TINY=(--frames 4 --size 48x32 --quiet)
 
@@ -95,5 +73,4 @@ mkdir -p "$T/empty"
 expect 0 "empty folder is fine" -- "$G" scene synth --out "$T/empty" "${TINY[@]}"
 exists "$T/empty/transforms.json"
 
-echo "$passed passed, $failed failed"
-[ "$failed" -eq 0 ]
+cli_finish
