@@ -46,6 +46,9 @@ void gv_progress_start(gv_progress *p, const char *label, long total);
 void gv_progress_update(gv_progress *p, long done, const char *extra, ...)
     __attribute__((format(printf, 3, 4)));
 void gv_progress_finish(gv_progress *p);
+/* Mutes (1) or unmutes (0) the bars started on the calling thread, e.g. in workers that run
+ * side by side, whose bars would overwrite one another. */
+void gv_progress_mute_thread(int muted);
 
 /* ---- Files -------------------------------------------------------------------------- */
 /* Reads a whole file; *data is NUL-terminated and must be freed. */

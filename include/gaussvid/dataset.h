@@ -212,6 +212,8 @@ typedef struct {
     gv_dataset_params params;
     const char *out_dir;
     const gv_artifact_simulator *simulator; /* NULL: sparse 3DGS */
+    int jobs;                        /* runs side by side, one thread each (0 or 1: one run at a
+                                        time with every thread) */
 } gv_dataset_build_options;
 
 typedef struct {

@@ -61,7 +61,7 @@ int cmd_dataset_build(int argc, char **argv)
     const char *eval_text = NULL, *out = NULL;
     gv_dataset_params p;
     gv_dataset_default_params(&p);
-    int seed = 0;
+    int seed = 0, jobs = 1;
     const gv_flag flags[] = {
         {"scenes", GV_FLAG_STRING, &unused_scenes, "DIR,...", "scene folders (required): a comma-separated list, the flag repeated, and/or folders after it", 0},
         {"out", GV_FLAG_STRING, &out, "DIR", "the dataset folder (created; an existing one is resumed)", 1},
@@ -73,6 +73,7 @@ int cmd_dataset_build(int argc, char **argv)
         {"eval-scenes", GV_FLAG_STRING, &eval_text, "NAME,...", "scenes (folder names) of the eval split; the rest are train", 0},
         {"downscale", GV_FLAG_INT, &p.downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "random seed of training and clip sampling (default 0)", 0},
+        {"jobs", GV_FLAG_INT, &jobs, "J", "runs side by side, one thread each (default 1: one run on every thread)", 0},
     };
     const gv_command_spec spec = {
         "dataset build", "[DIR...]", "simulate sparse-view artifacts and sample clean-corrupted-clean clips",
@@ -83,6 +84,8 @@ int cmd_dataset_build(int argc, char **argv)
         "safetensors file under clips/, all listed in manifest.json. Runs already in the\n"
         "manifest are skipped, so an interrupted build resumes; the same --seed gives the\n"
         "same clips. Scene folders are named by their last path component.\n"
+        "--jobs J trains J runs at once, one thread each (each gives the clips of --threads 1);\n"
+        "on shared cores this avoids the threads of one run waiting for one another.\n"
         "See docs/FORMATS-DATASET.md.",
         flags, sizeof flags / sizeof flags[0], 0, MAX_SCENES};
     char *scene_text[MAX_SCENES];
@@ -108,13 +111,15 @@ int cmd_dataset_build(int argc, char **argv)
     int bad = gv_parse_intervals(intervals_text, intervals, GV_MAX_INTERVALS, &n_intervals) != 0 ||
               gv_sampling_from_name(sampling, &p.sampling) != 0;
     if (!bad && seed < 0) bad = gv_fail("--seed %d: must be non-negative", seed) != 0;
+    if (!bad && (jobs < 1 || jobs > 256)) bad = gv_fail("--jobs %d: must be in 1..256", jobs) != 0;
     if (bad) {
         free(eval_copy);
         return usage(gv_last_error());
     }
     p.seed = (uint64_t)seed;
 
-    gv_dataset_build_options o = {scenes, n_scenes, intervals, n_intervals, eval, n_eval, p, out, NULL};
+    gv_dataset_build_options o = {scenes, n_scenes, intervals, n_intervals, eval, n_eval, p, out, NULL,
+                                  jobs};
     gv_dataset_build_result r;
     int rc = gv_dataset_build(&o, &r);
     free(eval_copy);

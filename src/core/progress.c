@@ -9,6 +9,10 @@
 #define TERMINAL_REDRAW_SECONDS 0.1
 #define PLAIN_LINE_SECONDS 5.0
 
+static _Thread_local int muted;
+
+void gv_progress_mute_thread(int m) { muted = m; }
+
 void gv_progress_start(gv_progress *p, const char *label, long total)
 {
     memset(p, 0, sizeof *p);
@@ -16,7 +20,7 @@ void gv_progress_start(gv_progress *p, const char *label, long total)
     p->total = total;
     p->start = gv_now();
     p->last_draw = p->start;
-    p->enabled = gv_log_level() >= GV_LOG_INFO;
+    p->enabled = gv_log_level() >= GV_LOG_INFO && !muted;
     p->on_terminal = isatty(fileno(stderr));
 }
 

@@ -5,6 +5,7 @@
 #include <dirent.h>
 #include <errno.h>
 #include <limits.h>
+#include <omp.h>
 #include <signal.h>
 #include <stdlib.h>
 #include <string.h>
@@ -195,53 +196,99 @@ static void format_time(char *out, size_t size, double seconds)
     snprintf(out, size, "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
 }
 
+typedef struct {
+    const gv_dataset_build_options *opt;
+    const scene_set *scenes;
+    gv_manifest *manifest;
+    gv_dataset_build_result *result;
+    int todo;
+    double start;
+} build_state;
+
+/* Builds run r (scene r / n_intervals at its interval), then prints the overall progress. */
+static int build_one(build_state *b, int r)
+{
+    const gv_dataset_build_options *opt = b->opt;
+    int i = r / opt->n_intervals, n = opt->intervals[r % opt->n_intervals];
+    const scene_set *s = b->scenes;
+    gv_info("dataset: starting %s n=%d (%s split)", s->names[i], n, s->splits[i]);
+    data_run run = {&s->scenes[i], s->names[i], s->splits[i], n, &opt->params,
+                    opt->simulator ? opt->simulator : &gv_artifact_3dgs, opt->out_dir};
+    gv_run_record rec;
+    if (data_build_run(&run, b->manifest, &rec) != 0) return -1;
+#pragma omp critical(gv_dataset_progress)
+    {
+        gv_dataset_build_result *result = b->result;
+        result->runs_built++;
+        result->clips_written += rec.n_clips;
+        double elapsed = gv_now() - b->start;
+        char elapsed_text[32], eta_text[32];
+        format_time(elapsed_text, sizeof elapsed_text, elapsed);
+        format_time(eta_text, sizeof eta_text,
+                    elapsed / result->runs_built * (b->todo - result->runs_built));
+        gv_info("dataset: %d/%d runs built; %s n=%d: %d clips, baseline PSNR %.2f dB SSIM %.4f over "
+                "%d held-out frames, %.1f s; elapsed %s, eta %s", result->runs_built, b->todo,
+                s->names[i], n, rec.n_clips, rec.psnr_mean, rec.ssim_mean, rec.n_held_out,
+                rec.seconds, elapsed_text, eta_text);
+    }
+    gv_run_record_free(&rec);
+    return 0;
+}
+
+/* Runs `jobs` runs at a time, one thread each (nested parallel regions get one thread), their
+ * progress bars muted; the first failure stops the runs not yet started and is reported once
+ * the running ones end (their clips are committed: a rebuild resumes after them). */
+static int build_side_by_side(build_state *b, const int *todo, int jobs)
+{
+    int failed = 0;
+    char first_error[1024] = "";
+    omp_set_max_active_levels(1);
+#pragma omp parallel for num_threads(jobs) schedule(dynamic, 1)
+    for (int k = 0; k < b->todo; k++) {
+        int stop;
+#pragma omp atomic read
+        stop = failed;
+        if (stop) continue;
+        gv_progress_mute_thread(1);
+        if (build_one(b, todo[k]) != 0) {
+#pragma omp critical(gv_dataset_progress)
+            if (!failed) snprintf(first_error, sizeof first_error, "%s", gv_last_error());
+#pragma omp atomic write
+            failed = 1;
+        }
+        gv_progress_mute_thread(0);
+    }
+    return failed ? gv_fail("%s", first_error) : 0;
+}
+
 /* Runs every (scene, n) not yet complete; one line of overall progress per run. */
 static int build_runs(const gv_dataset_build_options *opt, const scene_set *s, gv_manifest *m,
                       gv_dataset_build_result *result)
 {
     int total = s->n * opt->n_intervals;
-    uint8_t *complete = calloc((size_t)total, 1);
-    if (!complete) return gv_fail("out of memory for %d runs", total);
+    int *todo = malloc((size_t)total * sizeof *todo);
+    if (!todo) return gv_fail("out of memory for %d runs", total);
     result->runs_total = total;
+    int n_todo = 0;
     for (int r = 0; r < total; r++) {
         int c, i = r / opt->n_intervals, n = opt->intervals[r % opt->n_intervals];
         if (run_is_complete(opt->out_dir, m, s->names[i], n, s->splits[i], &c) != 0) {
-            free(complete);
+            free(todo);
             return -1;
         }
-        complete[r] = (uint8_t)c;
-        result->runs_skipped += c;
+        if (c) result->runs_skipped++;
+        else todo[n_todo++] = r;
     }
-    int todo = total - result->runs_skipped;
-    gv_info("dataset: %d runs (%d scenes x %d intervals): %d already built, %d to build", total,
-            s->n, opt->n_intervals, result->runs_skipped, todo);
-    double start = gv_now();
-    for (int r = 0; r < total; r++) {
-        if (complete[r]) continue;
-        int i = r / opt->n_intervals, n = opt->intervals[r % opt->n_intervals];
-        gv_info("dataset: run %d/%d: %s n=%d (%s split)", result->runs_built + 1, todo,
-                s->names[i], n, s->splits[i]);
-        data_run run = {&s->scenes[i], s->names[i], s->splits[i], n, &opt->params,
-                        opt->simulator ? opt->simulator : &gv_artifact_3dgs, opt->out_dir};
-        gv_run_record rec;
-        if (data_build_run(&run, m, &rec) != 0) {
-            free(complete);
-            return -1;
-        }
-        result->runs_built++;
-        result->clips_written += rec.n_clips;
-        double elapsed = gv_now() - start;
-        char elapsed_text[32], eta_text[32];
-        format_time(elapsed_text, sizeof elapsed_text, elapsed);
-        format_time(eta_text, sizeof eta_text, elapsed / result->runs_built * (todo - result->runs_built));
-        gv_info("dataset: %d/%d runs built; %s n=%d: %d clips, baseline PSNR %.2f dB SSIM %.4f over "
-                "%d held-out frames, %.1f s; elapsed %s, eta %s", result->runs_built, todo,
-                s->names[i], n, rec.n_clips, rec.psnr_mean, rec.ssim_mean, rec.n_held_out,
-                rec.seconds, elapsed_text, eta_text);
-        gv_run_record_free(&rec);
-    }
-    free(complete);
-    return 0;
+    int jobs = opt->jobs < 1 ? 1 : opt->jobs < n_todo ? opt->jobs : n_todo;
+    gv_info("dataset: %d runs (%d scenes x %d intervals): %d already built, %d to build, %d at a "
+            "time", total, s->n, opt->n_intervals, result->runs_skipped, n_todo, jobs);
+    build_state b = {opt, s, m, result, n_todo, gv_now()};
+    int rc = 0;
+    if (jobs > 1) rc = build_side_by_side(&b, todo, jobs);
+    else
+        for (int k = 0; k < n_todo && rc == 0; k++) rc = build_one(&b, todo[k]);
+    free(todo);
+    return rc;
 }
 
 int gv_dataset_build(const gv_dataset_build_options *opt, gv_dataset_build_result *result)

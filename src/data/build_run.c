@@ -202,6 +202,8 @@ int data_build_run(const data_run *run, gv_manifest *m, gv_run_record *rec)
     rec->render_seconds = gv_now() - start - rec->train_seconds;
     if (write_clips(run, frames, n_clips, &cache, entries) != 0) goto done;
     rec->seconds = gv_now() - start;
+    /* Runs built side by side share the manifest. */
+#pragma omp critical(gv_dataset_manifest)
     rc = commit_run(run, rec, entries, m);
 done:
     if (model) run->simulator->free_model(run->simulator->ctx, model);

@@ -64,6 +64,20 @@ rm -rf "$D.again"
 expect 0 "rebuild" -- "$G" dataset build --scenes "$A,$B" --eval-scenes room-b --intervals 6 \
     --iters 20 --clips-per-run 2 --seed 5 --out "$D.again" --quiet --threads 1
 if cmp -s "$D.again/clips/room-b_n06_001.safetensors" "$T/first.safetensors"; then ok; else bad "same seed, different clip"; fi
+# Two runs side by side (--jobs 2, one thread each): the clips of --threads 1, byte for byte,
+# and a manifest listing the same clips.
+rm -rf "$D.jobs"
+expect 0 "jobs" -- "$G" dataset build --scenes "$A,$B" --eval-scenes room-b --intervals 6 \
+    --iters 20 --clips-per-run 2 --seed 5 --out "$D.jobs" --jobs 2
+has "2 runs (2 built, 0 already there), 4 clips written"
+for f in room-a_n06_000 room-a_n06_001 room-b_n06_000 room-b_n06_001; do
+    if cmp -s "$D.jobs/clips/$f.safetensors" "$D.again/clips/$f.safetensors"; then ok
+    else bad "--jobs 2 changed clip $f"; fi
+done
+if diff <(grep -v seconds "$D.jobs/manifest.json") <(grep -v seconds "$D.again/manifest.json") >/dev/null
+then ok; else bad "--jobs 2 manifest differs"; fi
+expect 2 "jobs 0" -- "$G" dataset build --scenes "$A" --intervals 6 --out "$D.jobs" --jobs 0
+one_line "--jobs 0"
 # Other options into the same folder: refused.
 expect 1 "other options" -- "$G" dataset build --scenes "$A" --intervals 6 --iters 30 --out "$D" --quiet
 one_line "--iters 20"
