@@ -1,5 +1,6 @@
-/* gaussvid metrics A B [--json]: PSNR and SSIM of two images as the reference 3DGS
- * evaluation computes them (docs/METRICS.md). */
+/* gaussvid metrics A B [--json] [--lpips WEIGHTS]: PSNR and SSIM of two images as the
+ * reference 3DGS evaluation computes them (docs/METRICS.md), and LPIPS when its AlexNet
+ * weights are given (docs/LPIPS.md). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -9,15 +10,18 @@
 #include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/image.h"
+#include "gaussvid/lpips.h"
 #include "gaussvid/metrics.h"
 
-static int print_json(double psnr, double ssim, int width, int height)
+/* lpips: NULL when not computed. */
+static int print_json(double psnr, double ssim, const double *lpips, int width, int height)
 {
     cJSON *root = cJSON_CreateObject();
     int identical = isinf(psnr);
     if (identical) cJSON_AddNullToObject(root, "psnr"); /* JSON has no infinity */
     else cJSON_AddNumberToObject(root, "psnr", psnr);
     cJSON_AddNumberToObject(root, "ssim", ssim);
+    if (lpips) cJSON_AddNumberToObject(root, "lpips", *lpips);
     cJSON_AddNumberToObject(root, "width", width);
     cJSON_AddNumberToObject(root, "height", height);
     cJSON_AddBoolToObject(root, "identical", identical);
@@ -32,8 +36,11 @@ static int print_json(double psnr, double ssim, int width, int height)
 int cmd_metrics(int argc, char **argv)
 {
     int json = 0;
+    const char *lpips_path = NULL;
     const gv_flag flags[] = {
         {"json", GV_FLAG_BOOL, &json, NULL, "print one JSON object on stdout", 0},
+        {"lpips", GV_FLAG_STRING, &lpips_path, "WEIGHTS",
+         "also LPIPS (AlexNet) with these safetensors weights", 0},
     };
     const gv_command_spec spec = {
         "metrics", "A B", "PSNR (dB) and SSIM of two images of the same size",
@@ -42,8 +49,10 @@ int cmd_metrics(int argc, char **argv)
         "v / 255. PSNR = -10 log10(MSE) over all values; SSIM uses the 11x11 Gaussian window\n"
         "(sigma 1.5) with zero padding, C1 = 0.01^2, C2 = 0.03^2, averaged over all pixels and\n"
         "channels. Identical images have infinite PSNR, written as null in JSON together with\n"
-        "\"identical\": true. JSON keys: psnr, ssim, width, height, identical.",
-        flags, 1, 2, 2};
+        "\"identical\": true. JSON keys: psnr, ssim, width, height, identical.\n"
+        "--lpips adds LPIPS (0 for identical images; lower is closer), as lpips.LPIPS(net='alex')\n"
+        "on the RGB images read as v / 127.5 - 1; both must be at least 31x31. JSON key: lpips.",
+        flags, 2, 2, 2};
     char *positional[2];
     int n_positional = 0;
     int parsed = gv_args_parse(&spec, argc, argv, positional, &n_positional);
@@ -62,16 +71,25 @@ int cmd_metrics(int argc, char **argv)
                      positional[0], a.width, a.height, positional[1], b.width, b.height);
     else
         rc = gv_image_psnr_ssim(&a, &b, &psnr, &ssim);
+    double lpips = 0.0;
+    if (rc == 0 && lpips_path) {
+        gv_lpips net;
+        rc = gv_lpips_load(&net, lpips_path);
+        if (rc == 0 && gv_lpips_distance(&net, &a, &b, &lpips) != 0)
+            rc = gv_fail_context("%s", positional[0]);
+        gv_lpips_free(&net);
+    }
     int width = a.width, height = a.height;
     gv_image_free(&a);
     gv_image_free(&b);
     if (rc != 0) return gv_report_failure();
     if (json) {
-        if (print_json(psnr, ssim, width, height) != 0) return gv_report_failure();
-    } else if (isinf(psnr)) {
-        printf("PSNR: inf (identical images)\nSSIM: %.6f\n", ssim);
+        if (print_json(psnr, ssim, lpips_path ? &lpips : NULL, width, height) != 0)
+            return gv_report_failure();
     } else {
-        printf("PSNR: %.4f dB\nSSIM: %.6f\n", psnr, ssim);
+        if (isinf(psnr)) printf("PSNR: inf (identical images)\nSSIM: %.6f\n", ssim);
+        else printf("PSNR: %.4f dB\nSSIM: %.6f\n", psnr, ssim);
+        if (lpips_path) printf("LPIPS: %.6f\n", lpips);
     }
     return 0;
 }

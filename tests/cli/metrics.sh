@@ -131,4 +131,83 @@ expect_usage "$T/grey.png" "$T/rgb.png" --bogus
 "$G" metrics --help | grep -q "identical"
 check_rc "--help exit 0 and documents the JSON" $?
 
+# --lpips: LPIPS (AlexNet) weights written here as BF16 under the lpips package's names
+# (docs/LPIPS.md): convolutions and biases from a repeating pattern of 13 values of both
+# signs, heads all 1.0 (non-negative, as the published heads).
+write_lpips() { # write_lpips FILE [NAME_LEFT_OUT]
+    local file=$1 skip=${2:-} header="{" off=0 conv_bytes=0 lin_bytes=0 entry name shape n
+    local -a tensors=(net.slice1.0.weight:64,3,11,11 net.slice1.0.bias:64
+        net.slice2.3.weight:192,64,5,5 net.slice2.3.bias:192 net.slice3.6.weight:384,192,3,3
+        net.slice3.6.bias:384 net.slice4.8.weight:256,384,3,3 net.slice4.8.bias:256
+        net.slice5.10.weight:256,256,3,3 net.slice5.10.bias:256 lin0.model.1.weight:1,64,1,1
+        lin1.model.1.weight:1,192,1,1 lin2.model.1.weight:1,384,1,1
+        lin3.model.1.weight:1,256,1,1 lin4.model.1.weight:1,256,1,1)
+    for entry in "${tensors[@]}"; do
+        name=${entry%%:*} shape=${entry#*:}
+        [ "$name" = "$skip" ] && continue
+        n=$((2 * ${shape//,/*}))
+        header+="\"$name\":{\"dtype\":\"BF16\",\"shape\":[$shape],\"data_offsets\":[$off,$((off + n))]},"
+        off=$((off + n))
+        case $name in lin*) lin_bytes=$((lin_bytes + n)) ;; *) conv_bytes=$((conv_bytes + n)) ;; esac
+    done
+    header="${header%,}}"
+    while ((${#header} % 8)); do header+=" "; done
+    { le64 ${#header}; printf '%s' "$header"; head -c $conv_bytes "$T/pattern"
+      head -c $lin_bytes "$T/ones"; } >"$file"
+}
+# BF16 0.0498 -0.0299 0.02 0.04 -0.0498 0.01 -0.02 0.0299 -0.01 0.0449 -0.04 0.015 0.025
+printf '\x4c\x3d\xf5\xbc\xa4\x3c\x24\x3d\x4c\xbd\x24\x3c\xa4\xbc\xf5\x3c\x24\xbc\x38\x3d\x24\xbd\x75\x3c\xcd\x3c' >"$T/pattern"
+printf '\x80\x3f' >"$T/ones" # BF16 1.0
+for i in $(seq 18); do cat "$T/pattern" "$T/pattern" >"$T/p2" && mv "$T/p2" "$T/pattern"; done
+for i in $(seq 11); do cat "$T/ones" "$T/ones" >"$T/o2" && mv "$T/o2" "$T/ones"; done
+write_lpips "$T/alex.safetensors"
+write_lpips "$T/no_lin4.safetensors" lin4.model.1.weight
+
+# 32x32 grey images (AlexNet needs at least 31x31): a ramp, the ramp as RGB, and the ramp
+# with a bright 8x8 square.
+big=() big_rgb=() big_sq=()
+for ((y = 0; y < 32; y++)); do
+    for ((x = 0; x < 32; x++)); do
+        v=$(((x * 5 + y * 3) % 256)) s=$v
+        ((x >= 12 && x < 20 && y >= 12 && y < 20)) && s=250
+        big+=("$v") big_rgb+=("$v" "$v" "$v") big_sq+=("$s")
+    done
+done
+write_png "$T/big.png" 32 32 0 1 "${big[@]}"
+write_png "$T/big_rgb.png" 32 32 2 3 "${big_rgb[@]}"
+write_png "$T/big_sq.png" 32 32 0 1 "${big_sq[@]}"
+
+expect 0 "LPIPS of identical images" -- "$G" metrics "$T/big.png" "$T/big_rgb.png" --lpips "$T/alex.safetensors"
+has "LPIPS: 0.000000"
+expect 0 "LPIPS of different images" -- "$G" metrics "$T/big.png" "$T/big_sq.png" --lpips "$T/alex.safetensors"
+has "SSIM: "
+ab=$(sed -n 's/^LPIPS: //p' "$T/out")
+awk -v d="$ab" 'BEGIN { exit !(d > 0) }'
+check_rc "LPIPS > 0 for different images ($ab)" $?
+"$G" metrics "$T/big_sq.png" "$T/big.png" --lpips "$T/alex.safetensors" >"$T/out" 2>/dev/null
+ba=$(sed -n 's/^LPIPS: //p' "$T/out")
+[ -n "$ab" ] && [ "$ab" = "$ba" ]
+check_rc "LPIPS is symmetric ($ab, $ba)" $?
+expect 0 "LPIPS in JSON" -- "$G" metrics "$T/big.png" "$T/big_sq.png" --lpips "$T/alex.safetensors" --json
+j=$(sed -n 's/.*"lpips":\([0-9.eE+-]*\).*/\1/p' "$T/out")
+[ "$(wc -l <"$T/out")" -eq 1 ] && awk -v j="$j" -v t="$ab" 'BEGIN { exit !(j != "" && j - t < 5e-7 && t - j < 5e-7) }'
+check_rc "JSON is one line with lpips $j = $ab: $(cat "$T/out")" $?
+expect 0 "no LPIPS without --lpips" -- "$G" metrics "$T/big.png" "$T/big_sq.png" --json
+! grep -q lpips "$T/out"
+check_rc "JSON without --lpips has no lpips key" $?
+
+expect 1 "weights without lin4" -- "$G" metrics "$T/big.png" "$T/big_sq.png" --lpips "$T/no_lin4.safetensors"
+one_line "no_lin4.safetensors: not LPIPS (AlexNet) weights: missing lin4.model.1.weight"
+expect 1 "absent weights" -- "$G" metrics "$T/big.png" "$T/big_sq.png" --lpips "$T/absent.safetensors"
+one_line "absent.safetensors"
+expect 1 "images as weights" -- "$G" metrics "$T/big.png" "$T/big_sq.png" --lpips "$T/big.png"
+one_line "big.png"
+expect 1 "8x8 images are too small for LPIPS" -- "$G" metrics "$T/grey.png" "$T/rgb.png" --lpips "$T/alex.safetensors"
+one_line "grey.png: LPIPS: a 8x8 image is too small: AlexNet needs at least 31x31"
+[ ! -s "$T/out" ]
+check_rc "nothing on stdout when LPIPS fails" $?
+expect 2 "--lpips without a value" -- "$G" metrics "$T/big.png" "$T/big_sq.png" --lpips
+"$G" metrics --help | grep -q -- "--lpips WEIGHTS"
+check_rc "--help documents --lpips" $?
+
 cli_finish
