@@ -5,6 +5,7 @@
 #include <omp.h>
 
 #include "check.h"
+#include "gaussvid/vae.h"
 #include "model_testutil.h"
 
 /* One no-grad forward; returns a malloc'd copy of the output (numel in *n), or NULL. */
@@ -435,6 +436,40 @@ static void test_vace_context(void)
     CHECK(ctx[0] == 1 && ctx[1] == 2 && ctx[2] == 3 && ctx[3] == 4 && ctx[4] == 5);
 }
 
+/* The whole context from frames: [E(V (1 - M)) | E(V M) | mask], each part as computed here
+ * with the VAE alone; with 5 frames and anchors at both ends the mask channels sample frames
+ * 1 and 3 (reference 3.3 step 4), so they are all ones. */
+static void test_vace_context_build(void)
+{
+    gv_model_config c;
+    CHECK(gv_model_config_preset(&c, "tiny") == 0);
+    gv_vae v;
+    CHECK(gv_vae_init(&v, &c, 0, 3) == 0);
+    enum { T = 5, H = 16, W = 24 };
+    const int z = c.vae.z_dim, sf = c.vae.spatial_factor, h = H / sf, w = W / sf, mc = sf * sf;
+    const int64_t plane = (int64_t)H * W, n = 3 * T * plane, nz = (int64_t)z * 2 * h * w;
+    float *video = malloc(n * sizeof(float)), *part = malloc(n * sizeof(float)), *zi = malloc(nz * sizeof(float));
+    float *zr = malloc(nz * sizeof(float)), *ctx = malloc((2 * nz + (int64_t)mc * 2 * h * w) * sizeof(float));
+    gv_fill_uniform(video, n, 4, 0, -1.0f, 1.0f);
+    CHECK(gv_vace_context_build(&v, video, T, H, W, GV_ANCHORS_BOTH, ctx) == 0);
+    for (int k = 0; k < 2; k++) {
+        for (int64_t i = 0; i < n; i++) {
+            int f = (int)(i / plane % T), anchor = f == 0 || f == T - 1;
+            part[i] = (k == 0) == anchor ? video[i] : 0.0f; /* inactive: anchors kept; reactive: the rest */
+        }
+        CHECK(gv_vae_encode(&v, part, T, H, W, 0, 4, k ? zr : zi) == 0);
+    }
+    CHECK(!memcmp(ctx, zi, nz * sizeof(float)) && !memcmp(ctx + nz, zr, nz * sizeof(float)));
+    int ones = 1;
+    for (int64_t i = 2 * nz; i < 2 * nz + (int64_t)mc * 2 * h * w; i++) ones &= ctx[i] == 1.0f;
+    CHECK(ones);
+    CHECK(mt_max_abs(zi, nz) > 0 && mt_max_abs_diff(zi, zr, nz) > 1e-3);
+    CHECK_FAILS_WITH(gv_vace_context_build(&v, video, 4, H, W, GV_ANCHORS_BOTH, ctx), "1 + k x 4");
+    CHECK_FAILS_WITH(gv_vace_context_build(&v, video, T, 12, W, GV_ANCHORS_BOTH, ctx), "spatial factor");
+    free(video), free(part), free(zi), free(zr), free(ctx);
+    gv_vae_free(&v);
+}
+
 static void expect_null(gv_dit *m, gv_dit_inputs *d, const char *needle)
 {
     gv_graph g;
@@ -495,6 +530,7 @@ int main(void)
     test_per_frame();
     test_token_count();
     test_vace_context();
+    test_vace_context_build();
     test_bad_inputs();
     return check_summary();
 }

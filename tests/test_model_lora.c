@@ -169,6 +169,16 @@ static void test_save_load(void)
     free(got);
     /* an adapter file alone does not make a base */
     CHECK_FAILS_WITH(gv_dit_load(&fresh, two + 1, 1, GV_PART_ALL), "missing");
+    /* a NaN is refused naming the file it is in (the second here) and the tensor */
+    char nan_adapters[512];
+    path_in(nan_adapters, sizeof nan_adapters, "nan-adapters.safetensors");
+    gv_param *bad = gv_params_find(&m.params, "camera_encoder.proj.0.weight");
+    float kept = bad->t.data[3];
+    bad->t.data[3] = NAN;
+    CHECK(gv_dit_save(&m, nan_adapters, GV_PART_ADAPTERS) == 0);
+    bad->t.data[3] = kept;
+    const char *with_nan[2] = {base, nan_adapters};
+    CHECK_FAILS_WITH(gv_dit_load(&fresh, with_nan, 2, GV_PART_ALL), "nan-adapters.safetensors: camera_encoder.proj.0.weight: value element 3");
     free(want);
     gv_graph_free(&g);
     gv_dit_free(&other);

@@ -132,6 +132,23 @@ int gv_vae_encode(gv_vae *v, const float *video, int frames, int height, int wid
 int gv_vae_decode(gv_vae *v, const float *latent, int latent_frames, int lh, int lw,
                   int normalized, int chunked, float *video);
 
+/* ---- residual decoding (model/vae_residual.c; docs/VAE.md) ------------------------------ */
+/* The restorer's frames as render + D(z_restored) - D(z_render), clamped to [-1, 1]: the
+ * VAE's reconstruction error cancels where the restorer leaves the latent unchanged
+ * (z_restored = z_render gives the render back bit for bit). render and out are [3, T, H, W]
+ * with T = 1 + r (latent_frames - 1), H = s lh, W = s lw; latents [z, latent_frames, lh, lw],
+ * normalised when `normalized`; both are decoded one latent frame at a time (Wan). */
+int gv_vae_decode_residual(gv_vae *v, const float *render, const float *z_render, const float *z_restored,
+                           int latent_frames, int lh, int lw, int normalized, float *out);
+
+/* ---- the VACE context of a clip (model/vace_context.c; reference 3.3; DESIGN 6.3) -------- */
+/* [E(V (1 - M)) | E(V M) | M on the latent grid] for video V [3, T, H, W] in [-1, 1] and the
+ * anchors variant's mask M (gv_vace_frame_mask: 0 on anchors, 1 on frames to restore):
+ * out [2 z + s^2, T', H/s, W/s] (dit.h: the `vace` input). Latents are normalised when the
+ * VAE has statistics, raw otherwise; encoded chunked as Wan. */
+int gv_vace_context_build(gv_vae *v, const float *video, int frames, int height, int width, gv_anchors anchors,
+                          float *out);
+
 /* ---- model run --part vae-encode | vae-decode (model/vae_run.c) ------------------------- */
 /* Load the VAE from the first of the weight files that holds it, then read "video"
  * [(B,) 3, T, H, W] and add "mean" and, when the VAE has statistics, "latent" (the

@@ -82,4 +82,29 @@ typedef struct {
 int gv_vae_evaluate(gv_vae *v, const gv_vae_frames *f, int frames, int stride, int max_clips,
                     gv_vae_eval_result *r);
 
+/* ---- residual decoding on dataset clips (model/vae_residual.c) ----------------------------
+ * What the VAE costs a restorer on real inputs: per scored frame, the PSNR / SSIM against the
+ * ground truth of the render itself (the sparse-3DGS baseline), of D(E(render)) (the render
+ * through the VAE), of D(E(target)) (a perfect restorer, decoded plainly), of the residual
+ * composition with z_restored = z_render (must equal the render: max_abs_same = 0) and with
+ * z_restored = E(target) (a perfect restorer, decoded as a residual: the upper bound). */
+enum {
+    GV_VAE_RESIDUAL_RENDER, GV_VAE_RESIDUAL_VAE_RENDER, GV_VAE_RESIDUAL_VAE_TARGET, GV_VAE_RESIDUAL_SAME,
+    GV_VAE_RESIDUAL_UPPER, GV_VAE_RESIDUAL_KINDS
+};
+typedef struct {
+    int n_clips, n_frames;                  /* frames scored */
+    double psnr[GV_VAE_RESIDUAL_KINDS];     /* sums until gv_vae_residual_finish, then means */
+    double ssim[GV_VAE_RESIDUAL_KINDS];
+    double max_abs_same;                    /* largest |residual(z_render) - render| in [-1, 1] units */
+} gv_vae_residual_scores;
+
+/* Adds one clip: inputs (the renders, anchors included) and targets (ground truth) are 8-bit
+ * [frames, height, width, 3]; frames t with score[t] != 0 are scored (the corrupted ones).
+ * Frames are centre-cropped to multiples of the spatial factor, encoded chunked as Wan. */
+int gv_vae_residual_score_clip(gv_vae *v, const uint8_t *inputs, const uint8_t *targets, int frames, int height,
+                               int width, const int *score, gv_vae_residual_scores *s);
+/* Turns the sums into means over the scored frames. */
+void gv_vae_residual_finish(gv_vae_residual_scores *s);
+
 #endif

@@ -2,6 +2,8 @@
 #include <stdio.h>
 
 #include "bench/bench.h"
+#include "bench/bench_model.h"
+#include "bench/bench_train.h"
 #include "cli/commands.h"
 #include "gaussvid/core.h"
 
@@ -35,6 +37,11 @@ static int cmd_bench_all(int argc, char **argv)
     int rc = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (rc != GV_ARGS_OK) return gv_args_exit_code(rc);
     if (gv_bench_nn(&o, stdout) != 0) return gv_report_failure();
+    gv_bench_model_options mo;
+    gv_bench_model_defaults(&mo);
+    mo.quick = o.quick;
+    if (gv_bench_model(&mo, stdout) != 0) return gv_report_failure();
+    if (gv_bench_train(&o, "small", 144, 256, stdout) != 0) return gv_report_failure();
     gv_bench_splat_options so = {.interval = 6, .iterations = o.quick ? 300 : 8000,
                                  .checkpoint_every = o.quick ? 100 : 1000};
     return gv_bench_splat(&so, stdout) == 0 ? 0 : gv_report_failure();
@@ -43,6 +50,8 @@ static int cmd_bench_all(int argc, char **argv)
 static const gv_subcommand bench_commands[] = {
     {"nn", cmd_bench_nn, "tensor engine: linear vs sgemm, attention, transformer block"},
     {"splat", gv_bench_splat_command, "sparse-view 3DGS training: phases, kernel stages, quality"},
+    {"model", gv_bench_model_command, "restoration network: fine-tuning step per variant, camera cache, VAE"},
+    {"train", gv_bench_train_command, "training throughput: pretraining and fine-tuning clips/s, peak memory"},
     {"all", cmd_bench_all, "every benchmark above, as tables"},
 };
 

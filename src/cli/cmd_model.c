@@ -4,6 +4,7 @@
  * implies (docs/MODEL.md). */
 #include <cjson/cJSON.h>
 #include <inttypes.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -137,7 +138,40 @@ static void print_issues(const char *kind, const gv_weight_issue *items, int n)
     if (n > SHOWN_PER_KIND) printf("  ... and %d more\n", n - SHOWN_PER_KIND);
 }
 
-static void print_report(const gv_weight_report *r, const gv_st_file *files, int n_files)
+/* Tensors of the model (listed name and shape, a float dtype) holding a NaN or an infinity:
+ * the loaders refuse them (DESIGN 4), so they decide whether the files load too. */
+typedef struct {
+    int n;
+    gv_weight_issue items[SHOWN_PER_KIND];
+} value_report;
+
+static int check_values(const gv_weight_list *l, const gv_st_file *files, int n_files, value_report *vr)
+{
+    memset(vr, 0, sizeof *vr);
+    for (int f = 0; f < n_files; f++)
+        for (int i = 0; i < files[f].n_tensors; i++) {
+            const gv_st_tensor *t = &files[f].tensors[i];
+            const gv_weight_spec *w = gv_weight_list_find(l, t->name);
+            if (!w || w->rank != t->rank || memcmp(w->shape, t->shape, sizeof(int64_t) * (size_t)t->rank)) continue;
+            float *x = malloc((size_t)t->n_elements * sizeof *x);
+            if (!x) return gv_fail("out of memory for %s", t->name);
+            int64_t bad = -1;
+            if (gv_st_tensor_to_f32(&files[f], t, x) == 0) /* other dtypes are reported as mis-shaped */
+                for (int64_t k = 0; k < t->n_elements && bad < 0; k++)
+                    if (!isfinite(x[k])) bad = k;
+            if (bad >= 0 && vr->n < SHOWN_PER_KIND) {
+                gv_weight_issue *e = &vr->items[vr->n];
+                e->name = t->name, e->file = files[f].path;
+                snprintf(e->detail, sizeof e->detail, "element %lld is %g", (long long)bad, (double)x[bad]);
+            }
+            vr->n += bad >= 0;
+            free(x);
+        }
+    gv_clear_error();
+    return 0;
+}
+
+static void print_report(const gv_weight_report *r, const value_report *vr, const gv_st_file *files, int n_files)
 {
     printf("\nweights: %d file%s, %d tensors (", n_files, n_files == 1 ? "" : "s", r->n_found);
     for (int f = 0; f < n_files; f++) printf("%s%s: %d", f ? ", " : "", files[f].path, files[f].n_tensors);
@@ -146,7 +180,8 @@ static void print_report(const gv_weight_report *r, const gv_st_file *files, int
     print_issues("unexpected", r->unexpected, r->n_unexpected);
     print_issues("mis-shaped", r->mismatched, r->n_mismatched);
     print_issues("duplicated", r->duplicate, r->n_duplicate);
-    printf("the weights load: %s\n", gv_weight_report_ok(r) ? "yes" : "no");
+    print_issues("non-finite", vr->items, vr->n);
+    printf("the weights load: %s\n", gv_weight_report_ok(r) && vr->n == 0 ? "yes" : "no");
 }
 
 static void print_list(const gv_weight_list *l)
@@ -184,7 +219,8 @@ static cJSON *issues_json(const gv_weight_issue *items, int n)
     return a;
 }
 
-static void add_report_json(cJSON *root, const gv_weight_report *r, const gv_st_file *files, int n_files)
+static void add_report_json(cJSON *root, const gv_weight_report *r, const value_report *vr, const gv_st_file *files,
+                            int n_files)
 {
     cJSON *w = cJSON_AddObjectToObject(root, "weights");
     cJSON *names = cJSON_AddArrayToObject(w, "files");
@@ -195,12 +231,14 @@ static void add_report_json(cJSON *root, const gv_weight_report *r, const gv_st_
     cJSON_AddItemToObject(w, "unexpected", issues_json(r->unexpected, r->n_unexpected));
     cJSON_AddItemToObject(w, "mis_shaped", issues_json(r->mismatched, r->n_mismatched));
     cJSON_AddItemToObject(w, "duplicated", issues_json(r->duplicate, r->n_duplicate));
-    cJSON_AddBoolToObject(w, "loads", gv_weight_report_ok(r));
+    cJSON_AddItemToObject(w, "non_finite", issues_json(vr->items, vr->n < SHOWN_PER_KIND ? vr->n : SHOWN_PER_KIND));
+    cJSON_AddNumberToObject(w, "n_non_finite", vr->n);
+    cJSON_AddBoolToObject(w, "loads", gv_weight_report_ok(r) && vr->n == 0);
 }
 
 static int print_json(const gv_model_config *c, const gv_weight_list *l, const gv_weight_counts *n,
-                      const gv_model_cost *cost, const gv_weight_report *r, const gv_st_file *files,
-                      int n_files, int list)
+                      const gv_model_cost *cost, const gv_weight_report *r, const value_report *vr,
+                      const gv_st_file *files, int n_files, int list)
 {
     char *config_text = gv_model_config_to_json(c);
     cJSON *root = cJSON_CreateObject();
@@ -223,7 +261,7 @@ static int print_json(const gv_model_config *c, const gv_weight_list *l, const g
         cJSON_AddNumberToObject(k, "evaluations", cost->evaluations);
         cJSON_AddNumberToObject(k, "forward_flops", cost->flops_total);
     }
-    if (r) add_report_json(root, r, files, n_files);
+    if (r) add_report_json(root, r, vr, files, n_files);
     if (list) {
         cJSON *a = cJSON_AddArrayToObject(root, "tensor_list");
         for (int i = 0; i < l->n; i++) {
@@ -281,25 +319,28 @@ static int inspect(const inspect_options *o, const file_list *names, unsigned pa
     gv_weight_list_count(&l, &counts);
     gv_st_file *files = calloc((size_t)names->n + 1, sizeof *files);
     gv_weight_report report = {0};
+    value_report values = {0};
     int rc = files ? 0 : gv_fail("out of memory");
     if (!rc && names->n) rc = open_weights(names, files);
     if (!rc && names->n) {
         rc = gv_weights_check(&l, parts, files, names->n, &report);
+        if (!rc) rc = check_values(&l, files, names->n, &values);
         if (rc) for (int f = 0; f < names->n; f++) gv_st_close(&files[f]);
     }
     if (!rc) {
         if (o->json) {
-            rc = print_json(&c, &l, &counts, have_cost ? &cost : NULL, names->n ? &report : NULL, files, names->n, o->list);
+            rc = print_json(&c, &l, &counts, have_cost ? &cost : NULL, names->n ? &report : NULL, &values, files,
+                            names->n, o->list);
         } else {
             print_config(&c, o->config);
             print_counts(&counts);
             if (have_cost) print_cost(&cost, o->clip);
-            if (names->n) print_report(&report, files, names->n);
+            if (names->n) print_report(&report, &values, files, names->n);
             if (o->list) print_list(&l);
         }
         for (int f = 0; f < names->n; f++) gv_st_close(&files[f]);
     }
-    int loads = !names->n || gv_weight_report_ok(&report);
+    int loads = !names->n || (gv_weight_report_ok(&report) && values.n == 0);
     gv_weight_report_free(&report);
     gv_weight_list_free(&l);
     free(files);
@@ -329,8 +370,9 @@ static int cmd_model_inspect(int argc, char **argv)
         "head, VACE, VAE encoder and decoder, camera encoder, LoRA), the trainable count of\n"
         "GaussVid fine-tuning (LoRA + camera; base frozen) and the forward FLOPs of one clip.\n"
         "With --weights, lists tensors of the checked parts missing from every file, tensors\n"
-        "that are no tensor of the model, mis-shaped tensors and names found in two files; exit\n"
-        "code 0 when the files load, 1 when not. Published Wan2.1 files: --parts base (DiT+VACE\n"
+        "that are no tensor of the model, mis-shaped tensors, names found in two files and\n"
+        "tensors holding a NaN or an infinity; exit code 0 when the files load, 1 when not.\n"
+        "Published Wan2.1 files: --parts base (DiT+VACE\n"
         "and VAE are separate files: give both). See docs/MODEL.md.",
         flags, (int)(sizeof flags / sizeof flags[0]), 0, 0};
     file_list names = {{0}, 0};

@@ -8,11 +8,12 @@
 static const gv_subcommand vae_commands[] = {
     {"train", cmd_vae_train, "train the VAE of a config (the small preset's) on scene frames"},
     {"eval", cmd_vae_eval, "reconstruction PSNR and SSIM of VAE weights on scene frames"},
+    {"residual", cmd_vae_residual, "what the VAE costs the restorer on dataset clips (residual decoding)"},
 };
 
 int cmd_vae(int argc, char **argv)
 {
-    return gv_run_subcommand("vae", vae_commands, 2, argc, argv);
+    return gv_run_subcommand("vae", vae_commands, (int)(sizeof vae_commands / sizeof vae_commands[0]), argc, argv);
 }
 
 int vae_take_list(const char *command, const char *name, int *argc, char **argv, const char **values, int *n)

@@ -35,5 +35,9 @@ int cmd_dataset_show(int argc, char **argv);
 int cmd_vae(int argc, char **argv);
 int cmd_vae_train(int argc, char **argv);
 int cmd_vae_eval(int argc, char **argv);
+int cmd_pretrain(int argc, char **argv);
+int cmd_train(int argc, char **argv);
+int cmd_restore(int argc, char **argv);
+int cmd_eval(int argc, char **argv);
 
 #endif

@@ -16,6 +16,10 @@ static const gv_subcommand commands[] = {
     {"bench", cmd_bench, "benchmarks: tensor engine (nn)"},
     {"dataset", cmd_dataset, "paired clip dataset: build (artifact simulation), stats, show"},
     {"vae", cmd_vae, "the restoration network's VAE: train on scene frames, evaluate reconstruction"},
+    {"pretrain", cmd_pretrain, "pretrain the base first-last-frame video model on clean clips"},
+    {"train", cmd_train, "GaussVid fine-tuning of a base model: LoRA + camera encoder, curriculum"},
+    {"restore", cmd_restore, "restore the intermediate frames of clips with a trained checkpoint"},
+    {"eval", cmd_eval, "PSNR and SSIM of baseline and restored frames per interval n (Markdown, JSON)"},
 };
 static const int n_commands = sizeof commands / sizeof commands[0];
 

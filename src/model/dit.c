@@ -149,6 +149,30 @@ static int camera_stream(gv_graph *g, gv_dit *m, const gv_dit_inputs *in, gv_ten
     return gv_dit_camera_stream(g, m, xc, rope_c, xs, ks, vs);
 }
 
+int gv_dit_keep_only(gv_graph *g, gv_arena_mark mark, gv_tensor **keep, int n)
+{
+    if (g->grad_enabled) return 0;
+    float *saved[4];
+    gv_tensor copy[4];
+    if (n > 4) return gv_fail("dit: keep_only takes at most 4 tensors");
+    for (int i = 0; i < n; i++) {
+        copy[i] = *keep[i];
+        if (!(saved[i] = malloc((size_t)keep[i]->numel * sizeof(float)))) {
+            while (i--) free(saved[i]);
+            return gv_fail("dit: out of memory for %lld values", (long long)keep[i]->numel);
+        }
+        memcpy(saved[i], keep[i]->data, (size_t)keep[i]->numel * sizeof(float));
+    }
+    gv_arena_rewind(&g->arena, mark);
+    int rc = 0;
+    for (int i = 0; i < n; i++) {
+        if (rc == 0 && !(keep[i] = gv_tensor_new(g, copy[i].ndim, copy[i].shape))) rc = -1;
+        if (rc == 0) memcpy(keep[i]->data, saved[i], (size_t)copy[i].numel * sizeof(float));
+        free(saved[i]);
+    }
+    return rc;
+}
+
 /* Tables of the video tokens and of their camera tokens. */
 static int rope_tables(gv_graph *g, const gv_dit *m, const int grid[3], gv_tensor **video, gv_tensor **camera)
 {
@@ -205,6 +229,7 @@ gv_tensor *gv_dit_forward(gv_dit *m, gv_graph *g, const gv_dit_inputs *in)
         e0c = gv_dit_camera_e0(g, m);
     }
     for (int i = 0, h = 0; i < L; i++) {
+        gv_arena_mark mark = gv_arena_get_mark(&g->arena);
         if (joint) {
             if (gv_dit_block_joint(g, m, &m->blocks[i], &x, &xc, e0, e0c, rope2, mask, ctx) != 0) return NULL;
             tr->camera_x[i] = xc;
@@ -215,6 +240,8 @@ gv_tensor *gv_dit_forward(gv_dit *m, gv_graph *g, const gv_dit_inputs *in)
             gv_tensor *hint = tr->hints[h++];
             x = gv_add(g, x, in->context_scale == 1.0f ? hint : gv_scale(g, hint, in->context_scale));
         }
+        /* inference: drop the block's activations (the trace keeps only what was made before) */
+        if (!x || (!joint && !in->trace && gv_dit_keep_only(g, mark, &x, 1) != 0)) return NULL;
     }
     return head(g, m, x, e, grid);
 }

@@ -138,7 +138,12 @@ int gv_dit_camera_stream(gv_graph *g, const gv_dit *m, gv_tensor *xc, gv_tensor 
             x[i] = NULL;
             return k[i] && v[i] ? 0 : -1;
         }
+        gv_arena_mark mark = gv_arena_get_mark(&g->arena);
         xc = x[i] = gv_dit_block_camera(g, m, &m->blocks[i], xc, e0c, rope, &k[i], &v[i]);
+        if (!xc || !k[i] || !v[i]) return -1;
+        gv_tensor *keep[3] = {x[i], k[i], v[i]}; /* inference: what later blocks and the cache need */
+        if (gv_dit_keep_only(g, mark, keep, 3) != 0) return -1;
+        xc = x[i] = keep[0], k[i] = keep[1], v[i] = keep[2];
     }
     return 0;
 }

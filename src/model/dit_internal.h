@@ -41,6 +41,10 @@ int gv_dit_camera_stream(gv_graph *g, const gv_dit *m, gv_tensor *xc, gv_tensor 
 gv_tensor *gv_dit_tokens(gv_graph *g, gv_tensor *map);
 
 /* VACE hints (reference 3.2): hints[j] for every VACE block from the context tokens and x0. */
+/* Inference only (no-grad graph): keeps the n tensors (allocated after `mark`) and releases
+ * everything else allocated after it, so a forward pass holds one block's activations at a
+ * time instead of all of them. With gradients on it does nothing. Returns 0 or -1. */
+int gv_dit_keep_only(gv_graph *g, gv_arena_mark mark, gv_tensor **keep, int n);
 int gv_vace_hints(gv_graph *g, const gv_dit *m, gv_tensor *vace, gv_tensor *x0, gv_tensor *e0, gv_tensor *rope,
                   gv_tensor *ctx, gv_tensor **hints);
 

@@ -18,9 +18,13 @@ int gv_vace_hints(gv_graph *g, const gv_dit *m, gv_tensor *vace, gv_tensor *x0, 
     gv_tensor *c = gv_dit_tokens(g, gv_conv3d(g, vace, m->vace_patch_w, m->vace_patch_b, &geom));
     c = gv_add(g, gv_dit_lin(g, m, &m->vace_blocks[0].before_proj, c), x0);
     for (int j = 0; j < m->cfg.dit.n_vace_layers; j++) {
+        gv_arena_mark mark = gv_arena_get_mark(&g->arena);
         c = gv_dit_block_video(g, m, &m->vace_blocks[j], c, e0, rope, ctx, NULL, NULL);
         hints[j] = gv_dit_lin(g, m, &m->vace_blocks[j].after_proj, c);
         if (!hints[j]) return -1;
+        gv_tensor *keep[2] = {c, hints[j]}; /* inference: one block's activations at a time */
+        if (gv_dit_keep_only(g, mark, keep, 2) != 0) return -1;
+        c = keep[0], hints[j] = keep[1];
     }
     return 0;
 }

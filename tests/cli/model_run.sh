@@ -98,6 +98,20 @@ check "adapters missing: exit 1 naming them ($out)" $?
 [ ! -e bad.safetensors ]
 check "no output after failures" $?
 
+# a NaN in the weights: model inspect says they do not load (exit 1) and model run refuses them,
+# each naming the tensor and the file (the first tensor's first value is patched to a NaN)
+cp w.safetensors nan.safetensors
+hlen=$(od -An -t u8 -N 8 nan.safetensors | tr -d ' ')
+printf '\x00\x00\xc0\x7f' | dd of=nan.safetensors bs=1 seek=$((8 + hlen)) conv=notrunc status=none
+out=$("$GV" model inspect --config tiny --parts dit,vace,camera,lora --weights nan.safetensors 2>&1)
+[ $? -eq 1 ] && echo "$out" | grep -q "non-finite: 1" && echo "$out" | grep -q "the weights load: no"
+check "inspect: a NaN means the weights do not load" $?
+out=$("$GV" model run --config tiny --weights nan.safetensors --inputs in.safetensors --out bad.safetensors 2>&1)
+[ $? -eq 1 ] && echo "$out" | grep -q "nan.safetensors: .*element 0 is nan" && [ ! -e bad.safetensors ]
+check "run: a NaN is refused naming the file and the tensor ($out)" $?
+"$GV" model inspect --config tiny --parts dit,vace,camera,lora --weights w.safetensors | grep -q "non-finite: 0"
+check "inspect: finite weights have no non-finite tensor" $?
+
 # usage errors: exit 2
 "$GV" model run --config tiny --weights w.safetensors --inputs in.safetensors --out x.safetensors --part vae-warp 2>/dev/null
 [ $? -eq 2 ]

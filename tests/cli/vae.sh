@@ -1,5 +1,5 @@
 #!/bin/bash
-# gaussvid vae train / vae eval (and model run --part vae-encode|vae-decode when that command
+# gaussvid vae train / vae eval / vae residual (and model run --part vae-encode|vae-decode when that command
 # exists): a tiny VAE trained a few steps on a small synthesised scene, its files, resuming,
 # evaluation (text and JSON), and usage and input errors.
 # Usage: bash vae.sh /path/to/gaussvid   ($GV_TMP: scratch folder)
@@ -34,8 +34,8 @@ check "synthesise a 10-frame 32x16 scene" $?
 check "synthesise a second scene" $?
 
 # ---- help and usage errors ------------------------------------------------------------------
-"$GV" vae --help | grep -q "train" && "$GV" vae --help | grep -q "eval"
-check "group help lists train and eval" $?
+"$GV" vae --help | grep -q "train" && "$GV" vae --help | grep -q "eval" && "$GV" vae --help | grep -q "residual"
+check "group help lists train, eval and residual" $?
 "$GV" vae train --help | grep -q -- "--scenes"
 check "train --help" $?
 "$GV" vae train --out "$DIR/x.safetensors" >/dev/null 2>&1
@@ -95,6 +95,30 @@ printf 'not safetensors' > "$DIR/bad.safetensors"
 err=$("$GV" vae eval --weights "$DIR/bad.safetensors" --scenes "$DIR/other" 2>&1)
 [ $? -eq 1 ] && echo "$err" | grep -q "bad.safetensors"
 check "a corrupt weights file fails naming it ($err)" $?
+
+# ---- residual decoding on dataset clips -------------------------------------------------------
+"$GV" dataset build --scenes "$DIR/room" --out "$DIR/data" --intervals 4 --iters 20 --clips-per-run 2 --threads 1 --quiet
+check "a dataset of 2 clips to score" $?
+out=$("$GV" vae residual --weights "$DIR/vae.safetensors" "$DIR/data" --threads 1 --quiet 2>&1)
+check "vae residual exits 0 ($out)" $?
+echo "$out" | grep -q "^  4  *2  *6 .* 0$" && echo "$out" | grep -q "^  all  *2  *6 .* 0$"
+check "one row per interval and the total, 3 frames per clip, residual with the latent unchanged exact" $?
+render=$(echo "$out" | awk '$1 == "all" { print $4 }')
+same=$(echo "$out" | awk '$1 == "all" { print $10 }')
+[ -n "$render" ] && [ "$render" = "$same" ]
+check "residual with the latent unchanged has the render's PSNR ($render, $same)" $?
+json=$("$GV" vae residual --weights "$DIR/vae.safetensors" "$DIR/data/clips/room_n04_000.safetensors" --json --threads 1 --quiet 2>/dev/null)
+echo "$json" | grep -q '"max_abs_same":[[:space:]]*0' && echo "$json" | grep -q '"psnr_residual_target":' && echo "$json" | tail -1 | grep -q '^}$'
+check "vae residual --json on one clip file" $?
+err=$("$GV" vae residual --weights "$DIR/vae.safetensors" "$DIR/bad.safetensors" --quiet 2>&1)
+[ $? -eq 1 ] && echo "$err" | grep -q "bad.safetensors"
+check "a corrupt clip file fails naming it ($err)" $?
+err=$("$GV" vae residual --weights "$DIR/vae.safetensors" "$DIR/room" --quiet 2>&1)
+[ $? -eq 1 ] && echo "$err" | grep -q "no clip files"
+check "a folder without clips fails ($err)" $?
+"$GV" vae residual --weights "$DIR/vae.safetensors" >/dev/null 2>&1
+[ $? -eq 2 ]
+check "vae residual without clips is a usage error" $?
 
 # ---- model run --part vae-encode / vae-decode ------------------------------------------------
 if "$GV" model run --help 2>/dev/null | grep -q "vae-encode"; then

@@ -1,0 +1,16 @@
+/* Training throughput (issue 7 "Performance"; docs/BENCHMARKS.md): clips per second of base
+ * pretraining and GaussVid fine-tuning of a preset, and the peak memory. */
+#ifndef GAUSSVID_BENCH_TRAIN_H
+#define GAUSSVID_BENCH_TRAIN_H
+
+#include <stdio.h>
+
+#include "bench/bench.h"
+
+/* Runs the training loop of each objective (and the camera-less variant) on synthetic latents
+ * of a 5-frame height x width clip of `preset`; prints a table or JSON. */
+int gv_bench_train(const gv_bench_options *o, const char *preset, int height, int width, FILE *out);
+/* `gaussvid bench train [--json] [--quick] [--preset P]` */
+int gv_bench_train_command(int argc, char **argv);
+
+#endif

@@ -1,0 +1,72 @@
+/* Checkpoints of the restoration network (docs/TRAINING.md "Checkpoint files"): one
+ * safetensors file with every tensor of the network by its checkpoint name (F32; the VAE is
+ * named in the metadata, or its tensors are in the file too), the config and the training
+ * state in __metadata__, and for resuming the AdamW moments as "adamw.m.<name>" and
+ * "adamw.v.<name>". A fine-tuned checkpoint holds the base weights as well, so it loads alone. */
+#ifndef GAUSSVID_CHECKPOINT_H
+#define GAUSSVID_CHECKPOINT_H
+
+#include <stdint.h>
+
+#include "gaussvid/dit.h"
+#include "gaussvid/model_config.h"
+#include "gaussvid/vae.h"
+
+#define GV_CHECKPOINT_FORMAT "gaussvid-checkpoint"
+#define GV_CHECKPOINT_VERSION 1
+#define GV_CHECKPOINT_TEXT 1024
+
+/* What the metadata records besides the config. */
+typedef struct {
+    char kind[16];                 /* "base" (pretraining) or "finetune" */
+    long step;                     /* optimiser steps completed */
+    long steps;                    /* steps of the whole run (S) */
+    long adamw_step;               /* AdamW's step count (bias correction) */
+    long data_position;            /* clips consumed from the shuffled stream (data_order) */
+    long clips_used, clips_skipped;/* clips trained on / passed over by the curriculum */
+    uint64_t seed;                 /* every random draw of step s comes from (seed, s) */
+    double seconds;                /* training time so far */
+    double loss;                   /* running mean of the loss at the last step */
+    char vae[GV_CHECKPOINT_TEXT];  /* the VAE file as given to training */
+    char vae_checksum[48];         /* gv_vae_checksum of its weights ("fnv1a64:<16 hex>"), or "" */
+    char base[GV_CHECKPOINT_TEXT]; /* the base checkpoint a fine-tuning started from, or "" */
+    char clips[GV_CHECKPOINT_TEXT];/* the dataset folder trained on (informational) */
+    char data[GV_CHECKPOINT_TEXT]; /* the training clips: split, count, hash of their names */
+    char training[GV_CHECKPOINT_TEXT]; /* options that decide the steps taken */
+} gv_train_state;
+
+/* ---- for inference ------------------------------------------------------------------------ */
+/* Loads a checkpoint: its config into cfg, the network into m (built by gv_dit_init from that
+ * config, every tensor read from the file, frozen; a base's LoRA adapters, absent from the
+ * file, stay at their zero start) and, when vae is not NULL, the VAE: its tensors in the file,
+ * or else the file named by metadata "vae" (as written, else relative to the checkpoint's
+ * folder), checked against "vae_checksum" (gv_checkpoint_vae_path). */
+int gv_checkpoint_load(const char *path, gv_dit *m, gv_vae *vae, gv_model_config *cfg);
+/* Reads only the config and the training state of a checkpoint. */
+int gv_checkpoint_read_info(const char *path, gv_model_config *cfg, gv_train_state *state);
+
+/* ---- for training ------------------------------------------------------------------------- */
+/* Writes every tensor of m, the config cfg (may describe more than m: a base's config keeps
+ * the LoRA rank fine-tuning will use) and the state; with_moments adds the AdamW moments of the
+ * trainable tensors. Atomic. */
+int gv_checkpoint_save(const char *path, const gv_dit *m, const gv_model_config *cfg, const gv_train_state *s,
+                       int with_moments);
+/* Restores a training run from a checkpoint written with moments: every tensor of m and the
+ * moments of its trainable tensors must be there with their shapes; sets m's AdamW step. */
+int gv_checkpoint_restore(const char *path, gv_dit *m, gv_train_state *s);
+/* Starts fine-tuning from a base: reads every tensor of m that the file has (the DiT and VACE
+ * parts must all be there; the camera part only when the file's camera variant is m's, else
+ * it keeps its fresh start); a tensor of another shape fails. *camera_loaded tells which. */
+int gv_checkpoint_load_base(const char *path, gv_dit *m, int *camera_loaded);
+/* 1 when two configs build the same network weights apart from the variant, the LoRA
+ * adapters and the latent statistics (what a base and its fine-tuning may differ in). */
+int gv_config_same_network(const gv_model_config *a, const gv_model_config *b);
+/* A config's network in a few words for messages ("tiny: dim 32, 2 layers, ..."). */
+void gv_config_describe(const gv_model_config *c, char *out, size_t size);
+/* The VAE file a checkpoint names (metadata "vae"): as written if it exists, else the same
+ * relative path or file name in the checkpoint's folder. */
+int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out, size_t size);
+/* "fnv1a64:<16 hex digits>" of gv_vae_checksum (the latent cache's key) into out. */
+void gv_checkpoint_vae_checksum(const gv_vae *vae, char *out, size_t size);
+
+#endif

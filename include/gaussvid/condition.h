@@ -1,0 +1,103 @@
+/* What the restoration network is conditioned on, for one 5-frame clip (paper 3.3, 3.4;
+ * DESIGN 6.3, 7; docs/RESTORATION.md): the normalised VAE latents of the ground truth (z0*)
+ * and of the input clip (z-hat), the VACE context and the Plücker field of the 5 cameras;
+ * and the latent cache that encodes a dataset's clips once.
+ *
+ * Shared by training (pretrain, train) and restoration (restore, eval). Arrays are float,
+ * channel-first, batch first:
+ *   z_clean, z_corrupt  [batch, z_dim, latent_frames, lh, lw]
+ *   vace                [batch, vace_in_dim, latent_frames, lh, lw] = [z_inactive | z_reactive | mask]
+ *   plucker             [batch, 6, plucker_frames, height, width]
+ * batch is 1 for the video model. The per-frame restorer (variant per_frame) sees each of the
+ * three intermediate frames as its own 1-frame clip: batch 3, latent_frames 1.
+ *
+ * VACE context (reference 3.3, 3.5; paper 3.3): the control video is the input clip (clean
+ * anchors, corrupted renders); M = 0 on the anchors of the config's anchors variant, 1
+ * elsewhere; inactive = video (1 - M), reactive = video M, each VAE-encoded (normalised);
+ * the mask pixel-unshuffled to the latent grid. So the reactive part of the intermediates is
+ * the corrupted render, as in the authors' pipeline (reference 1.2 step 2). An end frame that
+ * is not an anchor of the variant (anchors first / none) is blanked (0 = mid-grey) in the
+ * input clip, in z_corrupt and in the context: the ablation must not see its clean view.
+ * Configs with text cross-attention take a zero text context [batch, text_len, text_dim]
+ * (there are no prompts here). */
+#ifndef GAUSSVID_CONDITION_H
+#define GAUSSVID_CONDITION_H
+
+#include <stdint.h>
+
+#include "gaussvid/dataset.h"
+#include "gaussvid/model_config.h"
+#include "gaussvid/scene.h"
+#include "gaussvid/vae.h"
+
+/* One 5-frame clip prepared for the network (float, channel-first, layouts above). */
+typedef struct {
+    int n;                            /* the clip's interval */
+    int frames, height, width;        /* pixel clip: 5 x H x W */
+    int batch;                        /* 1; 3 for the per-frame restorer */
+    int z_dim, latent_frames, lh, lw; /* latent grid */
+    int vace_dim;                     /* vace_in_dim = 2 z_dim + spatial_factor^2 */
+    float *z_clean;    /* normalised VAE latent of the ground-truth clip (anchors + the three
+                          clean targets) = z0* in the paper */
+    float *z_corrupt;  /* latent of the input clip (clean anchors + the three corrupted
+                          renders) = z-hat in the paper */
+    float *vace;       /* VACE context for the config's anchors variant */
+    float *plucker;    /* packed Plücker field (plucker.h) of the 5 cameras relative to the first
+                          anchor; NULL for the camera variant none */
+    int plucker_frames;
+} gv_clip_latents;
+
+/* Floats of one z_clean / z_corrupt, of vace, of plucker. */
+int64_t gv_clip_latents_z_count(const gv_clip_latents *l);
+int64_t gv_clip_latents_vace_count(const gv_clip_latents *l);
+int64_t gv_clip_latents_plucker_count(const gv_clip_latents *l);
+
+/* Encodes a clip for the model config (VAE with latent statistics; the clip's size a multiple
+ * of spatial factor x DiT patch). Fails naming the clip (scene, n) and the problem. */
+int gv_clip_latents_prepare(gv_vae *vae, const gv_model_config *cfg, const gv_clip *clip, gv_clip_latents *out);
+void gv_clip_latents_free(gv_clip_latents *l);
+/* The parts of prepare: the sizes of a clip's latents (no arrays; checks as prepare does),
+ * allocation of the arrays for those sizes (plucker when with_plucker), and the Plücker field
+ * of the clip's cameras into l->plucker. */
+int gv_clip_latents_shape(const gv_vae *vae, const gv_model_config *cfg, const gv_clip_info *info, gv_clip_latents *l);
+int gv_clip_latents_alloc(gv_clip_latents *l, int with_plucker);
+int gv_clip_latents_plucker(const gv_clip *clip, int temporal_factor, gv_clip_latents *l);
+
+/* The cameras of a clip's 5 frames from its intrinsics and poses. */
+void gv_clip_cameras(const gv_clip *clip, gv_camera cams[GV_CLIP_FRAMES]);
+/* Frames [first, first + count) of a clip's inputs or targets (8-bit HWC) as a video
+ * [3, count, H, W] with values p / 127.5 - 1 (the VAE's range). */
+void gv_clip_video(const uint8_t *frames, const gv_clip_info *info, int first, int count, float *video);
+/* 1 for the frames the variant blanks in the input (an end frame that is not an anchor). */
+int gv_condition_frame_blanked(const gv_model_config *cfg, int frame);
+
+/* ---- latent cache (latent_cache.c) -----------------------------------------------------
+ * Every clip of a dataset folder (manifest.json), filtered by split ("train", "eval" or NULL
+ * = all), encoded once and cached in one safetensors file inside the dataset folder,
+ * latents_<VAE checksum>_<anchors>[_per-frame].safetensors, so later runs load it instead of
+ * re-encoding (progress bar while encoding). An entry is reused only when its clip file's
+ * content checksum matches; missing or stale entries are encoded and the file rewritten
+ * atomically (holding the union of the old valid entries and the new ones). A cache that
+ * cannot be read is rebuilt with a warning. Plücker fields are recomputed from the poses, not
+ * stored. vae_path is only named in messages (the checksum is of the loaded weights). */
+typedef struct {
+    int count;
+    gv_clip_latents *clips;
+    char **names;                     /* the manifest's file of each clip, e.g. clips/x_n06_000.safetensors */
+    int encoded;                      /* how many clips this load had to encode (0: all cached) */
+    char cache_path[4096];            /* the cache file used */
+} gv_latent_set;
+
+int gv_latent_set_load(const char *dataset_dir, const char *split, const char *vae_path, gv_vae *vae,
+                       const gv_model_config *cfg, gv_latent_set *out);
+void gv_latent_set_free(gv_latent_set *s);
+/* FNV-1a 64 checksum of a VAE's weights (every tensor by name, in order) and its latent
+ * statistics: the key of the latent cache. */
+uint64_t gv_vae_checksum(const gv_vae *vae);
+/* FNV-1a 64 of bytes, continuing from h (start with GV_FNV_OFFSET). */
+#define GV_FNV_OFFSET 0xcbf29ce484222325ull
+uint64_t gv_fnv1a64(uint64_t h, const void *data, size_t size);
+/* The cache file of a dataset folder for a VAE checksum and config: out (size bytes). */
+int gv_latent_cache_path(char *out, size_t size, const char *dataset_dir, uint64_t vae_key, const gv_model_config *cfg);
+
+#endif

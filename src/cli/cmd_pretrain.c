@@ -1,0 +1,88 @@
+/* gaussvid pretrain --clips DIR --config small --vae V --out base.safetensors: the base
+ * first-last-frame video model (standing in for the pretrained Wan2.1-VACE): standard flow
+ * matching on the clean training clips, the anchors as VACE context (docs/TRAINING.md). */
+#include <stdio.h>
+#include <string.h>
+
+#include "cli/commands.h"
+#include "gaussvid/core.h"
+#include "gaussvid/train.h"
+
+int cmd_pretrain(int argc, char **argv)
+{
+    gv_train_options o;
+    gv_train_defaults(&o, GV_OBJECTIVE_PRETRAIN);
+    const char *clips = NULL, *config = "small", *vae = NULL, *variant = NULL, *out = NULL, *log = NULL;
+    int steps = (int)o.steps, warmup = (int)o.warmup, seed = 0, ckpt = (int)o.checkpoint_every, stop_after = 0;
+    const gv_flag flags[] = {
+        {"clips", GV_FLAG_STRING, &clips, "DIR", "dataset folder (manifest.json); its train split is used", 1},
+        {"config", GV_FLAG_STRING, &config, "PRESET|FILE", "model config (default small)", 0},
+        {"vae", GV_FLAG_STRING, &vae, "FILE", "the trained VAE (.safetensors with latent statistics)", 1},
+        {"variant", GV_FLAG_STRING, &variant, "V", "variant overrides, e.g. camera=none (docs/MODEL.md)", 0},
+        {"out", GV_FLAG_STRING, &out, "FILE", "the base checkpoint; FILE.ckpt holds the resumable state", 1},
+        {"steps", GV_FLAG_INT, &steps, "N", "optimiser steps (default 5000)", 0},
+        {"batch", GV_FLAG_INT, &o.batch, "B", "clips per step (default 2)", 0},
+        {"lr", GV_FLAG_DOUBLE, &o.lr, "LR", "peak AdamW learning rate (default 3e-4)", 0},
+        {"min-lr", GV_FLAG_DOUBLE, &o.min_lr, "LR", "end of the cosine decay (default 3e-5)", 0},
+        {"warmup", GV_FLAG_INT, &warmup, "N", "linear warm-up steps (default 100)", 0},
+        {"shift", GV_FLAG_DOUBLE, &o.shift, "S", "shift of the timestep grid (default 5, as the reference; 1 = none)", 0},
+        {"seed", GV_FLAG_INT, &seed, "S", "random seed: initial weights, data order, timesteps, noise (default 0)", 0},
+        {"checkpoint-every", GV_FLAG_INT, &ckpt, "K", "steps between checkpoints FILE.ckpt (default 250)", 0},
+        {"resume", GV_FLAG_BOOL, &o.resume, NULL, "continue from FILE.ckpt when it exists (bit-exact)", 0},
+        {"stop-after", GV_FLAG_INT, &stop_after, "N", "end this run after step N (continue later with --resume)", 0},
+        {"log", GV_FLAG_STRING, &log, "FILE", "tab-separated log: step, seconds, lr, losses", 0},
+    };
+    const gv_command_spec spec = {
+        "pretrain", NULL, "pretrain the base first-last-frame video model on clean clips",
+        "Standard flow matching (reference wan-vace-gaussvid.md 5.5): x_t = (1 - t) z0 + t eps on\n"
+        "the clean clip latent z0, target v = eps - z0, t drawn uniformly from the 1000-point\n"
+        "grid shifted by --shift and the loss weighted by the reference's bell around t = 500.\n"
+        "The VACE context holds the anchors only (the reactive latents are zeroed): the base\n"
+        "generates the intermediate frames from the first and last frame, and from the cameras\n"
+        "when the variant has them. Every tensor is trained (no LoRA). The clips are encoded\n"
+        "once by --vae and cached in the dataset folder. The base keeps the config's LoRA rank\n"
+        "in its metadata for `gaussvid train`. See docs/TRAINING.md.",
+        flags, sizeof flags / sizeof flags[0], 0, 0};
+    int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
+    if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
+    if (steps < 1 || o.batch < 1 || warmup < 0 || seed < 0 || ckpt < 1 || stop_after < 0) {
+        fprintf(stderr, "gaussvid pretrain: --steps, --batch and --checkpoint-every must be positive; --warmup, --seed "
+                        "and --stop-after not negative\n");
+        return 2;
+    }
+    o.steps = steps, o.warmup = warmup, o.seed = (uint64_t)seed, o.checkpoint_every = ckpt, o.stop_after = stop_after;
+    o.out = out, o.log_path = log;
+
+    gv_model_config cfg;
+    if (gv_model_config_load(&cfg, config)) return gv_report_failure();
+    if (variant && gv_model_config_set_variant(&cfg, variant, "--variant")) {
+        fprintf(stderr, "gaussvid pretrain: %s\n", gv_last_error());
+        return 2;
+    }
+    gv_train_state meta;
+    memset(&meta, 0, sizeof meta);
+    snprintf(meta.kind, sizeof meta.kind, "base");
+    gv_latent_set set;
+    if (gv_train_load_data(clips, vae, NULL, &cfg, &set, &meta)) return gv_report_failure();
+    gv_model_config pre = cfg;
+    pre.lora.rank = 0; /* the base has no adapters; its file keeps cfg's rank for fine-tuning */
+    gv_dit m;
+    int rc = gv_dit_init(&m, &pre, o.seed);
+    if (rc == 0) rc = gv_dit_set_train_mode(&m, GV_DIT_FULL);
+    gv_train_report r;
+    if (rc == 0)
+        gv_info("pretrain: %s (camera %s, anchors %s), %d clips, %.2f M parameters, %ld steps of %d clips", cfg.name,
+                gv_camera_variant_name(cfg.variant.camera), gv_anchors_name(cfg.variant.anchors), set.count,
+                gv_params_count(&m.params, 1) / 1e6, o.steps, o.batch);
+    if (rc == 0) rc = gv_train_run(&m, &cfg, &set, &o, &meta, &r);
+    gv_dit_free(&m);
+    gv_latent_set_free(&set);
+    if (rc) return gv_report_failure();
+    if (r.end_step < o.steps)
+        printf("%s.ckpt: pretrained to step %ld of %ld (%.1f clips/s, %.1f s this run); continue with --resume\n", out,
+               r.end_step, o.steps, r.clips_per_second, r.seconds);
+    else
+        printf("%s: base %s pretrained for %ld steps (%ld clips, %.1f clips/s, %.1f s this run, loss %.4f)\n", out,
+               cfg.name, o.steps, r.clips_used, r.clips_per_second, r.seconds, r.last_loss);
+    return 0;
+}

@@ -1,0 +1,138 @@
+/* gaussvid restore --ckpt C (--clips DIR | --clip FILE) --out DIR: restores the intermediate
+ * frames of clips with a trained checkpoint and writes them as PNGs (and clip files); also the
+ * flags and loading that `gaussvid eval` shares (cmd_restore.h). docs/RESTORATION.md. */
+#include <stdio.h>
+#include <string.h>
+
+#include "cli/cmd_restore.h"
+#include "cli/commands.h"
+#include "gaussvid/core.h"
+
+void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
+{
+    const gv_flag flags[GV_RESTORE_CLI_FLAGS] = {
+        {"ckpt", GV_FLAG_STRING, &c->ckpt, "FILE", "the trained checkpoint (gaussvid train)", 1},
+        {"split", GV_FLAG_STRING, &c->split, "S", split_help, 0},
+        {"sampler", GV_FLAG_STRING, &c->sampler, "NAME",
+         "onestep, iterate, euler, released (euler as the authors run it) or identity (the input "
+         "through the same pipeline); default " GV_SAMPLER_DEFAULT, 0},
+        {"t0", GV_FLAG_DOUBLE, &c->t0, "T", "the first time the network sees, in (0, 1) (default: the sampler's)", 0},
+        {"steps", GV_FLAG_INT, &c->steps, "N", "network evaluations in time (iterate, euler)", 0},
+        {"shift", GV_FLAG_DOUBLE, &c->shift, "S", "shift of the time grid (default: the sampler's)", 0},
+        {"samples", GV_FLAG_INT, &c->samples, "K", "noise draws averaged per evaluation (onestep, iterate; default 1)", 0},
+        {"blend", GV_FLAG_DOUBLE, &c->blend, "B",
+         "fraction of the correction applied, in (0, 1]: z = z-hat + B (estimate - z-hat) (onestep, iterate; default 1)", 0},
+        {"seed", GV_FLAG_INT, &c->seed, "S", "noise seed (default 0); each clip's stream also depends on its file name", 0},
+        {"compose", GV_FLAG_STRING, &c->compose, "MODE",
+         "residual (render + D(z) - D(z-hat)) or decoded (D(z)); default " GV_COMPOSE_DEFAULT, 0},
+        {"no-cache", GV_FLAG_BOOL, &c->no_cache, NULL, "encode every clip instead of using the dataset's latent cache", 0},
+        {"lpips", GV_FLAG_STRING, &c->lpips, "FILE", "AlexNet-LPIPS weights (safetensors, docs/LPIPS.md): add LPIPS", 0},
+    };
+    memcpy(f, flags, sizeof flags);
+    c->sampler = GV_SAMPLER_DEFAULT, c->compose = GV_COMPOSE_DEFAULT;
+}
+
+const gv_lpips *gv_restore_cli_lpips(const gv_restore_cli *c, gv_lpips *net, int *failed)
+{
+    memset(net, 0, sizeof *net);
+    *failed = 0;
+    if (!c->lpips) return NULL;
+    if (gv_lpips_load(net, c->lpips)) {
+        *failed = 1;
+        return NULL;
+    }
+    return net;
+}
+
+int gv_restore_cli_usage(const char *command, const char *message)
+{
+    fprintf(stderr, "gaussvid %s: %s (see 'gaussvid %s --help')\n", command, message, command);
+    return 2;
+}
+
+int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o)
+{
+    memset(o, 0, sizeof *o);
+    if (c->seed < 0) return gv_fail("--seed %d: must be non-negative", c->seed);
+    if (c->t0 < 0 || c->steps < 0 || c->shift < 0 || c->samples < 0 || c->blend < 0)
+        return gv_fail("--t0, --steps, --shift, --samples and --blend must be positive");
+    if (gv_sampler_configure(c->sampler, c->t0, c->steps, c->shift, c->samples, c->blend, (uint64_t)c->seed,
+                             &o->sampler) ||
+        gv_compose_from_name(c->compose, &o->compose))
+        return -1;
+    if (c->split && strcmp(c->split, "all") && strcmp(c->split, "train") && strcmp(c->split, "eval"))
+        return gv_fail("--split %s: expected train, eval or all", c->split);
+    o->split = c->split && strcmp(c->split, "all") ? c->split : NULL;
+    o->use_cache = !c->no_cache;
+    return 0;
+}
+
+int gv_restore_cli_load(const char *ckpt, gv_dit *m, gv_vae *vae, gv_model_config *cfg, char *vae_path, size_t size)
+{
+    gv_train_state state;
+    gv_model_config info;
+    if (gv_checkpoint_read_info(ckpt, &info, &state) || gv_checkpoint_load(ckpt, m, vae, cfg)) return -1;
+    if (gv_checkpoint_vae_path(ckpt, &state, vae_path, size)) snprintf(vae_path, size, "%s", ckpt);
+    gv_clear_error();
+    gv_info("%s: %s checkpoint of %s, step %ld of %ld", ckpt, state.kind, cfg->name, state.step, state.steps);
+    return 0;
+}
+
+int cmd_restore(int argc, char **argv)
+{
+    gv_restore_cli c = {0};
+    const char *clips = NULL, *clip = NULL, *out = NULL;
+    int save_clips = 0;
+    gv_flag flags[GV_RESTORE_CLI_FLAGS + 4];
+    gv_restore_cli_flags(&c, flags, "with --clips: train, eval or all (default all)");
+    const gv_flag more[4] = {
+        {"clips", GV_FLAG_STRING, &clips, "DIR", "a dataset folder (manifest.json): restore its clips", 0},
+        {"clip", GV_FLAG_STRING, &clip, "FILE", "one clip file", 0},
+        {"out", GV_FLAG_STRING, &out, "DIR", "where <clip>/f0.png .. f4.png go", 1},
+        {"save-clips", GV_FLAG_BOOL, &save_clips, NULL,
+         "also write <out>/<clip>.safetensors: the clip with the restored frames as its inputs", 0},
+    };
+    memcpy(flags + GV_RESTORE_CLI_FLAGS, more, sizeof more);
+    const gv_command_spec spec = {
+        "restore", NULL, "restore the intermediate frames of clips with a trained checkpoint",
+        "Restores the three corrupted intermediate frames of 5-frame clips (clean anchor, 3 renders,\n"
+        "clean anchor; docs/FORMATS-DATASET.md) and writes the restored clip's 5 frames as PNGs\n"
+        "(the anchors are the input's). Prints the PSNR and SSIM of the input and restored\n"
+        "intermediates against the clips' ground truth. Samplers and compositions are described in\n"
+        "docs/RESTORATION.md; the same seed and clip give the same result.",
+        flags, GV_RESTORE_CLI_FLAGS + 4, 0, 0};
+    int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
+    if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
+    if (!clips == !clip) return gv_restore_cli_usage("restore", "give exactly one of --clips DIR and --clip FILE");
+    gv_restore_options o;
+    if (gv_restore_cli_options(&c, &o)) return gv_restore_cli_usage("restore", gv_last_error());
+    if (clip && c.split) return gv_restore_cli_usage("restore", "--split goes with --clips");
+
+    gv_dit m;
+    gv_vae vae;
+    gv_model_config cfg;
+    char vae_path[4200];
+    if (gv_restore_cli_load(c.ckpt, &m, &vae, &cfg, vae_path, sizeof vae_path)) return gv_report_failure();
+    o.out_dir = out, o.save_clips = save_clips, o.vae_path = vae_path;
+    gv_lpips lpips;
+    int failed;
+    const gv_lpips *net = gv_restore_cli_lpips(&c, &lpips, &failed);
+    gv_eval_table table;
+    gv_eval_init(&table, net);
+    int rc = failed ? -1 : gv_mkdirs(out);
+    if (rc == 0) {
+        const char *paths[1] = {clip};
+        rc = clip ? gv_restore_files(&m, &vae, paths, 1, &o, &table) : gv_restore_dataset(&m, &vae, clips, &o, &table);
+    }
+    if (rc == 0) {
+        char text[256];
+        gv_sampler_describe(&o.sampler, text, sizeof text);
+        gv_eval_finish(&table);
+        printf("%s: %d clips restored (%s, %s composition)\n\n", out, table.mean.clips, text, gv_compose_name(o.compose));
+        gv_eval_print_markdown(&table, stdout);
+    }
+    gv_lpips_free(&lpips);
+    gv_dit_free(&m);
+    gv_vae_free(&vae);
+    return rc == 0 ? 0 : gv_report_failure();
+}

@@ -1,0 +1,182 @@
+/* Reading checkpoints (docs/TRAINING.md "Checkpoint files"): the metadata (format, config,
+ * training state), loading a checkpoint for inference with its VAE, and the checksum that
+ * ties a checkpoint to the VAE file it was trained with. Writing and resuming are in
+ * checkpoint_state.c. */
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/condition.h"
+#include "gaussvid/core.h"
+#include "train/train_internal.h"
+
+void gv_checkpoint_vae_checksum(const gv_vae *vae, char *out, size_t size)
+{
+    snprintf(out, size, "fnv1a64:%016llx", (unsigned long long)gv_vae_checksum(vae));
+}
+
+int gv_ckpt_open(gv_st_file *f, const char *path)
+{
+    if (gv_st_open(f, path)) return -1;
+    const char *format = gv_st_metadata(f, "format");
+    if (!format || strcmp(format, GV_CHECKPOINT_FORMAT)) {
+        gv_fail("%s: not a gaussvid checkpoint (metadata format is %s%s%s, expected %s)", path, format ? "\"" : "",
+                format ? format : "missing", format ? "\"" : "", GV_CHECKPOINT_FORMAT);
+        gv_st_close(f);
+        return -1;
+    }
+    return 0;
+}
+
+static int meta_long(const gv_st_file *f, const char *key, long *out)
+{
+    const char *text = gv_st_metadata(f, key);
+    char *end = NULL;
+    errno = 0;
+    long v = text ? strtol(text, &end, 10) : -1;
+    if (!text || !*text || *end || errno || v < 0)
+        return gv_fail("%s: metadata %s is %s", f->path, key, text ? "not a count" : "missing");
+    *out = v;
+    return 0;
+}
+
+static int meta_double(const gv_st_file *f, const char *key, double *out)
+{
+    const char *text = gv_st_metadata(f, key);
+    char *end = NULL;
+    double v = text ? strtod(text, &end) : 0;
+    if (!text || !*text || *end) return gv_fail("%s: metadata %s is %s", f->path, key, text ? "not a number" : "missing");
+    *out = v;
+    return 0;
+}
+
+static void meta_text(const gv_st_file *f, const char *key, char *out, size_t size)
+{
+    const char *text = gv_st_metadata(f, key);
+    snprintf(out, size, "%s", text ? text : "");
+}
+
+int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state *s)
+{
+    const char *json = gv_st_metadata(f, "config");
+    if (!json) return gv_fail("%s: metadata config is missing", f->path);
+    if (gv_model_config_parse(cfg, json, f->path)) return -1;
+    memset(s, 0, sizeof *s);
+    meta_text(f, "kind", s->kind, sizeof s->kind);
+    if (strcmp(s->kind, "base") && strcmp(s->kind, "finetune"))
+        return gv_fail("%s: metadata kind is \"%s\", expected base or finetune", f->path, s->kind);
+    const char *seed_text = gv_st_metadata(f, "seed");
+    char *end = NULL;
+    if (meta_long(f, "step", &s->step) || meta_long(f, "steps", &s->steps) || meta_long(f, "adamw_step", &s->adamw_step) ||
+        meta_long(f, "data_position", &s->data_position) || meta_long(f, "clips_used", &s->clips_used) ||
+        meta_long(f, "clips_skipped", &s->clips_skipped) || meta_double(f, "seconds", &s->seconds) ||
+        meta_double(f, "loss", &s->loss))
+        return -1;
+    if (seed_text) s->seed = strtoull(seed_text, &end, 10);
+    if (!seed_text || !*seed_text || *end) return gv_fail("%s: metadata seed is %s", f->path, seed_text ? "not a number" : "missing");
+    meta_text(f, "vae", s->vae, sizeof s->vae);
+    meta_text(f, "vae_checksum", s->vae_checksum, sizeof s->vae_checksum);
+    meta_text(f, "base", s->base, sizeof s->base);
+    meta_text(f, "clips", s->clips, sizeof s->clips);
+    meta_text(f, "data", s->data, sizeof s->data);
+    meta_text(f, "training", s->training, sizeof s->training);
+    return 0;
+}
+
+int gv_checkpoint_read_info(const char *path, gv_model_config *cfg, gv_train_state *state)
+{
+    gv_st_file f;
+    if (gv_ckpt_open(&f, path)) return -1;
+    int rc = gv_ckpt_read_meta(&f, cfg, state);
+    gv_st_close(&f);
+    return rc;
+}
+
+int gv_config_same_network(const gv_model_config *a, const gv_model_config *b)
+{
+    gv_model_config x = *b;
+    memcpy(x.name, a->name, sizeof x.name);
+    x.variant = a->variant;
+    x.lora = a->lora;
+    x.vae.has_latent_stats = a->vae.has_latent_stats;
+    memcpy(x.vae.latent_mean, a->vae.latent_mean, sizeof x.vae.latent_mean);
+    memcpy(x.vae.latent_std, a->vae.latent_std, sizeof x.vae.latent_std);
+    return gv_model_config_equal(a, &x);
+}
+
+void gv_config_describe(const gv_model_config *c, char *out, size_t size)
+{
+    snprintf(out, size, "%s: dim %d, %d layers, %d VACE layers, VAE dim %d z_dim %d", c->name, c->dit.dim,
+             c->dit.num_layers, c->dit.n_vace_layers, c->vae.dim, c->vae.z_dim);
+}
+
+unsigned gv_dit_param_part(const gv_dit *m, const char *name)
+{
+    const gv_weight_spec *s = gv_weight_list_find(&m->weights, name);
+    return s ? gv_module_part(s->module) : 0;
+}
+
+/* Reads every tensor of m from the file; a base may lack its (zero-start) LoRA adapters. */
+static int load_network(const gv_st_file *f, gv_dit *m, const gv_train_state *s)
+{
+    for (int i = 0; i < m->params.n; i++) {
+        gv_tensor *t = &m->params.items[i]->t;
+        if (!gv_st_find(f, t->name) && !strcmp(s->kind, "base") && gv_dit_param_part(m, t->name) == GV_PART_LORA)
+            continue;
+        int64_t shape[GV_MAX_DIMS];
+        for (int k = 0; k < t->ndim; k++) shape[k] = t->shape[k];
+        if (gv_st_read_f32(f, t->name, t->data, shape, t->ndim)) return -1;
+    }
+    if (gv_params_check_finite(&m->params, 0)) return gv_fail_context("%s", f->path);
+    return 0;
+}
+
+int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out, size_t size)
+{
+    const char *vae = s->vae;
+    if (!*vae) return gv_fail("%s: metadata vae is missing and the file holds no VAE tensors", ckpt);
+    snprintf(out, size, "%s", vae);
+    if (gv_file_exists(out)) return 0;
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", ckpt);
+    char *slash = strrchr(dir, '/');
+    if (slash) *slash = '\0';
+    else snprintf(dir, sizeof dir, ".");
+    const char *base = strrchr(vae, '/');
+    if (vae[0] != '/' && gv_path_join(out, size, dir, vae) == 0 && gv_file_exists(out)) return 0;
+    if (base && gv_path_join(out, size, dir, base + 1) == 0 && gv_file_exists(out)) return 0;
+    return gv_fail("%s: the VAE it names, %s, is not found (neither as written nor beside the checkpoint)", ckpt, vae);
+}
+
+static int load_vae(const gv_st_file *f, const gv_model_config *cfg, const gv_train_state *s, gv_vae *vae)
+{
+    if (gv_vae_init(vae, cfg, 0, 0)) return -1;
+    if (vae->params.n > 0 && gv_st_find(f, vae->params.items[0]->t.name)) return gv_vae_load(vae, f->path, 1);
+    char path[4200], sum[64];
+    if (gv_checkpoint_vae_path(f->path, s, path, sizeof path) || gv_vae_load(vae, path, 0)) return -1;
+    gv_checkpoint_vae_checksum(vae, sum, sizeof sum);
+    if (*s->vae_checksum && strcmp(sum, s->vae_checksum))
+        return gv_fail("%s: the VAE %s is not the one it was trained with (checksum %s, expected %s)", f->path, path, sum,
+                       s->vae_checksum);
+    return 0;
+}
+
+int gv_checkpoint_load(const char *path, gv_dit *m, gv_vae *vae, gv_model_config *cfg)
+{
+    gv_st_file f;
+    gv_train_state s;
+    memset(m, 0, sizeof *m);
+    if (vae) memset(vae, 0, sizeof *vae);
+    if (gv_ckpt_open(&f, path)) return -1;
+    int rc = gv_ckpt_read_meta(&f, cfg, &s);
+    if (rc == 0) rc = gv_dit_init(m, cfg, 0);
+    if (rc == 0) rc = load_network(&f, m, &s);
+    if (rc == 0 && vae) rc = load_vae(&f, cfg, &s, vae);
+    gv_st_close(&f);
+    if (rc) {
+        gv_dit_free(m);
+        if (vae) gv_vae_free(vae);
+    }
+    return rc;
+}

@@ -1,0 +1,215 @@
+/* The network's conditioning of one clip (paper 3.3, 3.4; DESIGN 6.3, 7): VAE latents of the
+ * ground truth and of the input, the VACE context of the anchors variant and the Plücker
+ * field of the cameras. condition.h says what each array holds and why. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/condition.h"
+#include "gaussvid/core.h"
+#include "gaussvid/dit.h"
+#include "gaussvid/plucker.h"
+
+int64_t gv_clip_latents_z_count(const gv_clip_latents *l)
+{
+    return (int64_t)l->batch * l->z_dim * l->latent_frames * l->lh * l->lw;
+}
+
+int64_t gv_clip_latents_vace_count(const gv_clip_latents *l)
+{
+    return (int64_t)l->batch * l->vace_dim * l->latent_frames * l->lh * l->lw;
+}
+
+int64_t gv_clip_latents_plucker_count(const gv_clip_latents *l)
+{
+    return (int64_t)l->batch * 6 * l->plucker_frames * l->height * l->width;
+}
+
+void gv_clip_latents_free(gv_clip_latents *l)
+{
+    if (!l) return;
+    free(l->z_clean), free(l->z_corrupt), free(l->vace), free(l->plucker);
+    memset(l, 0, sizeof *l);
+}
+
+void gv_clip_cameras(const gv_clip *clip, gv_camera cams[GV_CLIP_FRAMES])
+{
+    for (int f = 0; f < GV_CLIP_FRAMES; f++) {
+        gv_camera *c = &cams[f];
+        memset(c, 0, sizeof *c);
+        c->width = clip->info.width, c->height = clip->info.height;
+        const float *k = clip->intrinsics[f], *p = clip->poses[f];
+        c->fx = k[0], c->fy = k[1], c->cx = k[2], c->cy = k[3];
+        for (int r = 0; r < 3; r++) {
+            for (int j = 0; j < 3; j++) c->R[r * 3 + j] = p[r * 4 + j];
+            c->t[r] = p[r * 4 + 3];
+        }
+    }
+}
+
+void gv_clip_video(const uint8_t *frames, const gv_clip_info *info, int first, int count, float *video)
+{
+    const int64_t plane = (int64_t)info->height * info->width;
+    for (int f = 0; f < count; f++) {
+        const uint8_t *src = frames + (int64_t)(first + f) * plane * 3;
+        for (int c = 0; c < 3; c++) {
+            float *dst = video + ((int64_t)c * count + f) * plane;
+            for (int64_t p = 0; p < plane; p++) dst[p] = src[p * 3 + c] / 127.5f - 1.0f;
+        }
+    }
+}
+
+int gv_condition_frame_blanked(const gv_model_config *cfg, int frame)
+{
+    if (frame != 0 && frame != GV_CLIP_FRAMES - 1) return 0;
+    float mask[GV_CLIP_FRAMES];
+    gv_vace_frame_mask(cfg->variant.anchors, GV_CLIP_FRAMES, mask);
+    return mask[frame] != 0.0f;
+}
+
+/* The model config must describe this VAE, and the clip must fit the VAE and the DiT patch. */
+static int check_sizes(const gv_vae *vae, const gv_model_config *cfg, const gv_clip_info *info, int frames)
+{
+    const gv_vae_config *v = &vae->cfg;
+    const gv_dit_config *d = &cfg->dit;
+    if (!vae->has_stats)
+        return gv_fail("the VAE has no latent statistics (the network works on normalised latents)");
+    if (v->z_dim != cfg->vae.z_dim || v->spatial_factor != cfg->vae.spatial_factor ||
+        v->temporal_factor != cfg->vae.temporal_factor || d->in_dim != v->z_dim)
+        return gv_fail("the VAE (z_dim %d, factors %d x %d) is not the one of config %s (z_dim %d, factors %d x %d)",
+                       v->z_dim, v->spatial_factor, v->temporal_factor, cfg->name, cfg->vae.z_dim,
+                       cfg->vae.spatial_factor, cfg->vae.temporal_factor);
+    if (d->vace_in_dim != 2 * v->z_dim + v->spatial_factor * v->spatial_factor)
+        return gv_fail("config %s: vace_in_dim %d is not 2 x %d + %d^2", cfg->name, d->vace_in_dim, v->z_dim,
+                       v->spatial_factor);
+    if (gv_vae_check_clip(v, frames, info->height, info->width)) return -1;
+    int lt = 1 + (frames - 1) / v->temporal_factor, lh = info->height / v->spatial_factor,
+        lw = info->width / v->spatial_factor;
+    if (lt % d->patch_size[0] || lh % d->patch_size[1] || lw % d->patch_size[2])
+        return gv_fail("a %dx%d clip gives a %dx%dx%d latent grid, not a multiple of the DiT patch %dx%dx%d",
+                       info->width, info->height, lt, lh, lw, d->patch_size[0], d->patch_size[1], d->patch_size[2]);
+    return 0;
+}
+
+/* The video model: one 5-frame clip, batch 1. The VACE context is built from the input clip
+ * after blanking (condition.h) by gv_vace_context_build (reference 3.3 steps 2-5). */
+static int prepare_clip(gv_vae *vae, const gv_model_config *cfg, const gv_clip *clip, gv_clip_latents *l)
+{
+    const gv_clip_info *info = &clip->info;
+    const int F = GV_CLIP_FRAMES, tf = vae->cfg.temporal_factor;
+    const int64_t plane = (int64_t)info->height * info->width;
+    float *gt = malloc((size_t)(3 * F * plane) * sizeof(float));
+    float *in = malloc((size_t)(3 * F * plane) * sizeof(float));
+    int rc = -1;
+    if (!gt || !in) {
+        gv_fail("out of memory for a %dx%d clip", info->width, info->height);
+        goto done;
+    }
+    gv_clip_video(clip->targets, info, 0, F, gt);
+    gv_clip_video(clip->inputs, info, 0, F, in);
+    for (int f = 0; f < F; f++)
+        if (gv_condition_frame_blanked(cfg, f))
+            for (int c = 0; c < 3; c++) memset(in + ((int64_t)c * F + f) * plane, 0, (size_t)plane * sizeof(float));
+    if (gv_vae_encode(vae, gt, F, info->height, info->width, 1, tf, l->z_clean) ||
+        gv_vae_encode(vae, in, F, info->height, info->width, 1, tf, l->z_corrupt) ||
+        gv_vace_context_build(vae, in, F, info->height, info->width, cfg->variant.anchors, l->vace))
+        goto done;
+    rc = 0;
+done:
+    free(gt), free(in);
+    return rc;
+}
+
+/* The per-frame restorer: the three intermediates, each a 1-frame clip (batch 3), with no
+ * anchors (M = 1: inactive = zeros, reactive = the render). */
+static int prepare_per_frame(gv_vae *vae, const gv_model_config *cfg, const gv_clip *clip, gv_clip_latents *l)
+{
+    const gv_clip_info *info = &clip->info;
+    const int tf = vae->cfg.temporal_factor;
+    const int64_t plane = (int64_t)info->height * info->width, per = (int64_t)l->z_dim * l->lh * l->lw;
+    const int64_t vace_per = (int64_t)l->vace_dim * l->lh * l->lw;
+    float *video = malloc((size_t)(3 * plane) * sizeof(float));
+    if (!video) return gv_fail("out of memory for a %dx%d clip", info->width, info->height);
+    int rc = 0;
+    for (int b = 0; rc == 0 && b < l->batch; b++) {
+        gv_clip_video(clip->targets, info, 1 + b, 1, video);
+        rc = gv_vae_encode(vae, video, 1, info->height, info->width, 1, tf, l->z_clean + b * per);
+        gv_clip_video(clip->inputs, info, 1 + b, 1, video);
+        if (rc == 0) rc = gv_vae_encode(vae, video, 1, info->height, info->width, 1, tf, l->z_corrupt + b * per);
+        if (rc == 0) rc = gv_vace_context_build(vae, video, 1, info->height, info->width, GV_ANCHORS_NONE, l->vace + b * vace_per);
+    }
+    free(video);
+    return rc;
+}
+
+int gv_clip_latents_shape(const gv_vae *vae, const gv_model_config *cfg, const gv_clip_info *info, gv_clip_latents *l)
+{
+    memset(l, 0, sizeof *l);
+    int per_frame = cfg->variant.per_frame, frames = per_frame ? 1 : GV_CLIP_FRAMES;
+    if (check_sizes(vae, cfg, info, frames))
+        return gv_fail_context("clip %s n%d frames %d-%d", info->scene, info->n, info->frames[0],
+                               info->frames[GV_CLIP_FRAMES - 1]);
+    l->n = info->n;
+    l->frames = GV_CLIP_FRAMES, l->height = info->height, l->width = info->width;
+    l->batch = per_frame ? GV_CLIP_FRAMES - 2 : 1;
+    l->z_dim = vae->cfg.z_dim;
+    l->latent_frames = 1 + (frames - 1) / vae->cfg.temporal_factor;
+    l->lh = info->height / vae->cfg.spatial_factor, l->lw = info->width / vae->cfg.spatial_factor;
+    l->vace_dim = cfg->dit.vace_in_dim;
+    l->plucker_frames = gv_plucker_packed_frames(frames, vae->cfg.temporal_factor);
+    return 0;
+}
+
+int gv_clip_latents_alloc(gv_clip_latents *l, int with_plucker)
+{
+    l->z_clean = malloc((size_t)gv_clip_latents_z_count(l) * sizeof(float));
+    l->z_corrupt = malloc((size_t)gv_clip_latents_z_count(l) * sizeof(float));
+    l->vace = malloc((size_t)gv_clip_latents_vace_count(l) * sizeof(float));
+    if (with_plucker) l->plucker = malloc((size_t)gv_clip_latents_plucker_count(l) * sizeof(float));
+    if (!l->z_clean || !l->z_corrupt || !l->vace || (with_plucker && !l->plucker)) {
+        gv_clip_latents_free(l);
+        return gv_fail("out of memory for the latents of a %dx%d clip", l->width, l->height);
+    }
+    return 0;
+}
+
+int gv_clip_latents_plucker(const gv_clip *clip, int temporal_factor, gv_clip_latents *l)
+{
+    const gv_clip_info *info = &clip->info;
+    gv_camera cams[GV_CLIP_FRAMES];
+    gv_clip_cameras(clip, cams);
+    if (l->batch == 1) return gv_plucker_field(cams, GV_CLIP_FRAMES, info->height, info->width, temporal_factor, l->plucker, NULL);
+    /* per-frame: each intermediate relative to the first anchor with the clip's length, its rays
+     * repeated to fill the packed group of a 1-frame clip (plucker.h) */
+    const int64_t plane = (int64_t)info->height * info->width;
+    float *rays = malloc((size_t)(6 * plane) * sizeof *rays);
+    if (!rays) return gv_fail("out of memory for %dx%d rays", info->width, info->height);
+    double scale = gv_plucker_scale(cams, GV_CLIP_FRAMES);
+    for (int b = 0; b < l->batch; b++) {
+        if (gv_plucker_rays(&cams[1 + b], &cams[0], scale, info->height, info->width, rays)) {
+            free(rays);
+            return -1;
+        }
+        for (int c = 0; c < 6; c++)
+            for (int k = 0; k < l->plucker_frames; k++)
+                memcpy(l->plucker + (((int64_t)b * 6 + c) * l->plucker_frames + k) * plane, rays + c * plane,
+                       (size_t)plane * sizeof(float));
+    }
+    free(rays);
+    return 0;
+}
+
+int gv_clip_latents_prepare(gv_vae *vae, const gv_model_config *cfg, const gv_clip *clip, gv_clip_latents *out)
+{
+    const gv_clip_info *info = &clip->info;
+    if (gv_clip_latents_shape(vae, cfg, info, out) ||
+        gv_clip_latents_alloc(out, cfg->variant.camera != GV_CAMERA_NONE))
+        return -1;
+    int rc = cfg->variant.per_frame ? prepare_per_frame(vae, cfg, clip, out) : prepare_clip(vae, cfg, clip, out);
+    if (rc == 0 && out->plucker) rc = gv_clip_latents_plucker(clip, vae->cfg.temporal_factor, out);
+    if (rc) {
+        gv_clip_latents_free(out);
+        return gv_fail_context("clip %s n%d frames %d-%d", info->scene, info->n, info->frames[0],
+                               info->frames[GV_CLIP_FRAMES - 1]);
+    }
+    return 0;
+}

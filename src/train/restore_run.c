@@ -1,0 +1,139 @@
+/* Restoring clip files or a dataset folder (restore.h): conditioning (from the latent cache
+ * when asked), sampling, composition, the restored frames written as PNGs and optionally as a
+ * clip file, and each clip added to the evaluation table. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/core.h"
+#include "gaussvid/image.h"
+#include "gaussvid/restore.h"
+
+/* The file name of a clip path without folders and ".safetensors". */
+static void clip_stem(const char *path, char *out, size_t size)
+{
+    const char *slash = strrchr(path, '/');
+    snprintf(out, size, "%s", slash ? slash + 1 : path);
+    size_t len = strlen(out), ext = strlen(".safetensors");
+    if (len > ext && !strcmp(out + len - ext, ".safetensors")) out[len - ext] = 0;
+}
+
+/* <out>/<stem>/f0.png .. f4.png, and <out>/<stem>.safetensors (inputs = the restored frames). */
+static int write_outputs(const char *out_dir, const char *stem, const gv_clip *clip, uint8_t *frames, int save_clip)
+{
+    char dir[4096], path[4200];
+    if (gv_path_join(dir, sizeof dir, out_dir, stem) || gv_mkdirs(dir)) return -1;
+    const gv_clip_info *info = &clip->info;
+    for (int f = 0; f < GV_CLIP_FRAMES; f++) {
+        gv_image img = {info->width, info->height, 3, gv_clip_frame(frames, info, f)};
+        snprintf(path, sizeof path, "%s/f%d.png", dir, f);
+        if (gv_image_write_png(path, &img)) return -1;
+    }
+    if (!save_clip) return 0;
+    gv_clip restored = *clip;
+    restored.inputs = frames;
+    snprintf(path, sizeof path, "%s/%s.safetensors", out_dir, stem);
+    return gv_clip_write(path, &restored);
+}
+
+/* One clip: latents l (NULL: prepared here), restored, written, evaluated. */
+static int restore_one(gv_dit *m, gv_vae *vae, const gv_clip *clip, const char *name, const gv_clip_latents *given,
+                       const gv_restore_options *o, gv_eval_table *table)
+{
+    gv_clip_latents own;
+    const gv_clip_latents *l = given;
+    if (!l) {
+        if (gv_clip_latents_prepare(vae, &m->cfg, clip, &own)) return -1;
+        l = &own;
+    }
+    const gv_clip_info *info = &clip->info;
+    float *z = malloc((size_t)gv_clip_latents_z_count(l) * sizeof *z);
+    uint8_t *frames = malloc((size_t)GV_CLIP_FRAMES * info->width * info->height * 3);
+    int rc = z && frames ? 0 : gv_fail("restore: out of memory");
+    if (rc == 0) rc = gv_restore_latent(m, l, &o->sampler, gv_restore_clip_seed(o->sampler.seed, name), z);
+    if (rc == 0) rc = gv_restore_compose(vae, clip, l, z, o->compose, frames);
+    if (rc == 0 && o->out_dir) {
+        char stem[512];
+        clip_stem(name, stem, sizeof stem);
+        rc = write_outputs(o->out_dir, stem, clip, frames, o->save_clips);
+    }
+    if (rc == 0 && table) rc = gv_eval_add(table, clip, frames);
+    free(z), free(frames);
+    if (!given) gv_clip_latents_free(&own);
+    return rc;
+}
+
+static void progress_note(gv_progress *bar, long done, const gv_eval_table *t)
+{
+    if (t && t->mean.frames)
+        gv_progress_update(bar, done, "PSNR %+.2f dB", (t->mean.psnr_rest - t->mean.psnr_base) / t->mean.frames);
+    else
+        gv_progress_update(bar, done, NULL);
+}
+
+int gv_restore_files(gv_dit *m, gv_vae *vae, const char *const *paths, int n_paths, const gv_restore_options *o,
+                     gv_eval_table *table)
+{
+    if (gv_sampler_check(&o->sampler)) return -1;
+    gv_progress bar;
+    gv_progress_start(&bar, "restore", n_paths);
+    int rc = 0;
+    for (int i = 0; rc == 0 && i < n_paths; i++) {
+        gv_clip clip;
+        if (gv_clip_read(paths[i], &clip)) {
+            rc = -1;
+            break;
+        }
+        char name[512];
+        clip_stem(paths[i], name, sizeof name);
+        rc = restore_one(m, vae, &clip, name, NULL, o, table);
+        gv_clip_free(&clip);
+        if (rc) gv_fail_context("%s", paths[i]);
+        progress_note(&bar, i + 1, table);
+    }
+    gv_progress_finish(&bar);
+    return rc;
+}
+
+int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_restore_options *o,
+                       gv_eval_table *table)
+{
+    if (gv_sampler_check(&o->sampler)) return -1;
+    gv_latent_set set;
+    memset(&set, 0, sizeof set);
+    gv_manifest man;
+    int found = 0, rc = 0;
+    gv_manifest_init(&man, NULL);
+    if (o->use_cache) {
+        rc = gv_latent_set_load(dataset_dir, o->split, o->vae_path, vae, &m->cfg, &set);
+    } else {
+        rc = gv_manifest_read(dataset_dir, &man, &found);
+        if (rc == 0 && !found) rc = gv_fail("%s: no manifest.json (not a dataset folder)", dataset_dir);
+    }
+    int total = 0;
+    for (int i = 0; rc == 0 && i < (o->use_cache ? set.count : man.n_clips); i++)
+        total += o->use_cache || !o->split || !strcmp(man.clips[i].split, o->split);
+    if (rc == 0 && total == 0) rc = gv_fail("%s: the manifest lists no %s clips", dataset_dir, o->split ? o->split : "");
+    gv_progress bar;
+    gv_progress_start(&bar, "restore", total);
+    int done = 0;
+    for (int i = 0; rc == 0 && i < (o->use_cache ? set.count : man.n_clips); i++) {
+        if (!o->use_cache && o->split && strcmp(man.clips[i].split, o->split)) continue;
+        const char *name = o->use_cache ? set.names[i] : man.clips[i].file;
+        char path[4096];
+        gv_clip clip;
+        if (gv_path_join(path, sizeof path, dataset_dir, name) || gv_clip_read(path, &clip)) {
+            rc = -1;
+            break;
+        }
+        char stem[512];
+        clip_stem(name, stem, sizeof stem);
+        rc = restore_one(m, vae, &clip, stem, o->use_cache ? &set.clips[i] : NULL, o, table);
+        gv_clip_free(&clip);
+        if (rc) gv_fail_context("%s", path);
+        progress_note(&bar, ++done, table);
+    }
+    gv_progress_finish(&bar);
+    gv_latent_set_free(&set);
+    gv_manifest_free(&man);
+    return rc;
+}

@@ -1,0 +1,23 @@
+/* Shared by the files of src/train: checkpoint metadata helpers and the comparison of configs. */
+#ifndef GAUSSVID_TRAIN_INTERNAL_H
+#define GAUSSVID_TRAIN_INTERNAL_H
+
+#include "gaussvid/checkpoint.h"
+#include "gaussvid/safetensors.h"
+#include "gaussvid/train.h"
+
+/* Opens a checkpoint and checks its "format" metadata; fails naming the file. */
+int gv_ckpt_open(gv_st_file *f, const char *path);
+/* Parses the "config" and training-state metadata of an open checkpoint. */
+int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state *s);
+/* The part (GV_PART_*) of a network tensor, from the model's weight list. */
+unsigned gv_dit_param_part(const gv_dit *m, const char *name);
+
+/* train_options.c: the options that decide a run's steps, as one line (checkpoint metadata
+ * "training"); their checks; the draws of clip b of a step (timestep, weights, noise eps[n]). */
+void gv_train_options_text(const gv_train_options *o, char *out, size_t size);
+int gv_train_check_options(const gv_train_options *o);
+void gv_train_draw(const gv_train_options *o, const gv_pretrain_schedule *grid, long step, int b, double w_cur,
+                   int64_t n, float *eps, gv_sample_draw *d);
+
+#endif

@@ -1,0 +1,110 @@
+/* The options of a training run: defaults, the text that identifies a run's trajectory in its
+ * checkpoints, checks, and the random draws of a step (each clip's timestep, weights and noise
+ * come from the Philox stream of (seed, step, clip), so they depend on nothing else). */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/core.h"
+#include "gaussvid/train.h"
+#include "train/train_internal.h"
+
+/* Step counts: docs/TRAINING.md "Budget" explains them (small preset, 2-core machine). */
+void gv_train_defaults(gv_train_options *o, gv_objective objective)
+{
+    memset(o, 0, sizeof *o);
+    o->objective = objective;
+    int pre = objective == GV_OBJECTIVE_PRETRAIN;
+    o->steps = 5000; /* 10000 clips a stage: ~2700 CPU-s, 20-25 min on 2 free cores */
+    o->batch = 2;
+    o->lr = pre ? 3e-4 : 1e-4;           /* fine-tuning: the paper's AdamW 1e-4 (4.1) */
+    o->min_lr = pre ? 3e-5 : 1e-4;
+    o->warmup = pre ? 100 : 0;
+    o->cosine = pre;
+    o->weight_decay = 0.01;              /* PyTorch's AdamW default, as DiffSynth trains */
+    o->clip_norm = 1.0;                  /* the authors' DeepSpeed config (reference 1.5) */
+    o->checkpoint_every = 250;
+    o->shift = 5.0;                      /* reference 5.5 */
+    o->t_max = 0.48;                     /* paper 3.4 */
+    o->curriculum = !pre;
+    o->n_min = 6, o->n_max = 26;         /* paper 4.1 */
+    o->p_w = 0.05;
+    o->progressive = !pre;
+    o->lambda = 0.1, o->tau_p = 0.3;     /* paper 4.1 */
+}
+
+long gv_train_latent_warmup(const gv_train_options *o)
+{
+    if (o->latent_warmup > 0) return o->latent_warmup;
+    long s_w = o->steps / 20; /* the paper's S_w = 1000 of S = 20000 */
+    return s_w > 0 ? s_w : 1;
+}
+
+/* The options that decide which steps are taken: a resumed run must have the same. */
+void gv_train_options_text(const gv_train_options *o, char *out, size_t size)
+{
+    snprintf(out, size,
+             "objective=%s steps=%ld batch=%d lr=%g min_lr=%g warmup=%ld cosine=%d weight_decay=%g clip_norm=%g "
+             "seed=%llu shift=%g t_max=%g curriculum=%d n=%d:%d p_w=%g progressive=%d lambda=%g tau_p=%g S_w=%ld",
+             o->objective == GV_OBJECTIVE_PRETRAIN ? "pretrain" : "finetune", o->steps, o->batch, o->lr, o->min_lr,
+             o->warmup, o->cosine, o->weight_decay, o->clip_norm, (unsigned long long)o->seed, o->shift, o->t_max,
+             o->curriculum, o->n_min, o->n_max, o->p_w, o->progressive, o->lambda, o->tau_p, gv_train_latent_warmup(o));
+}
+
+void gv_train_data_text(const gv_latent_set *data, const char *split, char *out, size_t size)
+{
+    uint64_t h = GV_FNV_OFFSET;
+    for (int i = 0; i < data->count; i++) h = gv_fnv1a64(h, data->names[i], strlen(data->names[i]) + 1);
+    snprintf(out, size, "%d clips (split %s), names fnv1a64 %016llx", data->count, split ? split : "all",
+             (unsigned long long)h);
+}
+
+int gv_train_check_options(const gv_train_options *o)
+{
+    if (o->steps < 1 || o->batch < 1 || o->checkpoint_every < 1 || o->stop_after < 0 || o->warmup < 0)
+        return gv_fail("training: steps, batch and the checkpoint interval must be positive");
+    if (!(o->lr > 0) || o->min_lr < 0 || o->weight_decay < 0 || o->clip_norm < 0)
+        return gv_fail("training: the learning rate must be positive, the other rates not negative");
+    if (!(o->t_max > 0 && o->t_max <= 1) || !(o->shift > 0) || !(o->p_w > 0 && o->p_w < 1) || o->n_max <= o->n_min ||
+        o->lambda < 0 || !(o->tau_p > 0))
+        return gv_fail("training: t_max in (0, 1], shift > 0, p_w in (0, 1), n_max > n_min, lambda >= 0, tau_p > 0");
+    if (!o->out || !*o->out) return gv_fail("training: no output file");
+    return 0;
+}
+
+/* splitmix64: independent streams for (seed, step, clip, purpose). */
+static uint64_t mix(uint64_t x)
+{
+    x += 0x9E3779B97F4A7C15ULL;
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+    return x ^ (x >> 31);
+}
+
+static uint64_t stream(uint64_t seed, long step, int clip, int purpose)
+{
+    return mix(mix(mix(seed) + (uint64_t)step) + (uint64_t)(clip * 2 + purpose));
+}
+
+/* The timestep of clip b of a step and its weights; eps gets its noise. */
+void gv_train_draw(const gv_train_options *o, const gv_pretrain_schedule *grid, long step, int b, double w_cur,
+                        int64_t n, float *eps, gv_sample_draw *d)
+{
+    gv_rng r;
+    gv_rng_init(&r, stream(o->seed, step, b, 0));
+    double u = gv_rng_uniform(&r);
+    gv_fill_normal(eps, n, stream(o->seed, step, b, 1), 0, 0.0f, 1.0f);
+    d->w_cur = w_cur;
+    if (o->objective == GV_OBJECTIVE_PRETRAIN) {
+        int k = gv_pretrain_index(u);
+        d->t = (float)grid->sigma[k];
+        d->w_t = grid->weight[k];
+        d->w_lat = 0;
+    } else {
+        d->t = (float)(u * o->t_max); /* paper 3.4: t ~ U[0, 0.48] */
+        d->w_t = 1.0;
+        d->w_lat = o->progressive
+                       ? gv_progressive_weight(step, gv_train_latent_warmup(o), d->t, o->tau_p, o->lambda)
+                       : 0.0;
+    }
+}

@@ -1,0 +1,97 @@
+/* One training sample of either objective (DESIGN 7; paper 3.4, eq. 6-10): the noisy latent
+ * and its velocity target, the VACE context the objective allows, the DiT forward pass, the
+ * flow-matching loss, the progressive latent loss on x_t - t v, and the backward pass. */
+#include <math.h>
+#include <string.h>
+
+#include "gaussvid/core.h"
+#include "gaussvid/train.h"
+
+void gv_objective_inputs(const gv_clip_latents *l, gv_objective obj, float t, const float *eps, float *x_t,
+                         float *target)
+{
+    int64_t n = gv_clip_latents_z_count(l);
+    gv_flow_noisy(obj == GV_OBJECTIVE_PRETRAIN ? l->z_clean : l->z_corrupt, eps, t, n, x_t);
+    gv_flow_target(l->z_clean, eps, n, target);
+}
+
+/* Channels [z_dim, 2 z_dim) of the context are the reactive latents (condition.h): the
+ * corrupted renders. The base model generates the intermediates from the anchors alone. */
+void gv_objective_vace(const gv_clip_latents *l, gv_objective obj, float *out)
+{
+    memcpy(out, l->vace, (size_t)gv_clip_latents_vace_count(l) * sizeof(float));
+    if (obj != GV_OBJECTIVE_PRETRAIN) return;
+    int64_t plane = (int64_t)l->latent_frames * l->lh * l->lw;
+    for (int b = 0; b < l->batch; b++)
+        memset(out + ((int64_t)b * l->vace_dim + l->z_dim) * plane, 0, (size_t)(l->z_dim * plane) * sizeof(float));
+}
+
+/* mean |x_t - t v - z0*|: the progressive loss's value, also shown when its weight is 0. */
+static double latent_l1(const float *x_t, const float *v, const float *z0, float t, int64_t n)
+{
+    double sum = 0;
+    for (int64_t i = 0; i < n; i++) sum += fabsf(x_t[i] - t * v[i] - z0[i]);
+    return n ? sum / (double)n : 0;
+}
+
+/* The network's inputs besides the latent (NULL where the config has no such part). */
+static int side_inputs(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objective obj, gv_dit_inputs *in)
+{
+    const gv_model_config *c = &m->cfg;
+    int B = l->batch, T = l->latent_frames;
+    if (c->dit.n_vace_layers > 0) {
+        if (l->vace_dim != c->dit.vace_in_dim)
+            return gv_fail("clip n%d: VACE context of %d channels, the model takes %d", l->n, l->vace_dim, c->dit.vace_in_dim);
+        in->vace = gv_tensor_new(g, 5, (int[]){B, l->vace_dim, T, l->lh, l->lw});
+        if (!in->vace) return -1;
+        gv_objective_vace(l, obj, in->vace->data);
+    }
+    if (c->dit.cross_attn) { /* no prompts: a zero text context (condition.h) */
+        in->text = gv_tensor_new(g, 3, (int[]){B, c->dit.text_len, c->dit.text_dim});
+        if (!in->text) return -1;
+    }
+    if (c->variant.camera != GV_CAMERA_NONE) {
+        if (!l->plucker) return gv_fail("clip n%d: no Plücker field (prepared without cameras)", l->n);
+        in->plucker = gv_tensor_from(g, 5, (int[]){B, 6, l->plucker_frames, l->height, l->width}, l->plucker);
+        if (!in->plucker) return -1;
+    }
+    return 0;
+}
+
+int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objective obj, const gv_sample_draw *d,
+                    const float *eps, double scale, int backward, gv_sample_losses *out)
+{
+    const int B = l->batch, shape[5] = {B, l->z_dim, l->latent_frames, l->lh, l->lw};
+    float timestep[GV_CLIP_FRAMES];
+    if (B < 1 || B > GV_CLIP_FRAMES) return gv_fail("clip n%d: batch %d of latents", l->n, B);
+    if (l->z_dim != m->cfg.dit.in_dim) return gv_fail("clip n%d: latents of %d channels, the model takes %d", l->n, l->z_dim, m->cfg.dit.in_dim);
+    for (int b = 0; b < B; b++) timestep[b] = 1000.0f * d->t; /* reference 2.3: t = 1000 sigma */
+    gv_graph_reset(g);
+    int was = gv_graph_set_grad(g, backward);
+    gv_dit_inputs in = gv_dit_inputs_default();
+    gv_tensor *x_t = gv_tensor_new(g, 5, shape), *target = gv_tensor_new(g, 5, shape);
+    int rc = x_t && target ? side_inputs(m, g, l, obj, &in) : -1;
+    gv_tensor *v = NULL, *loss = NULL, *fm = NULL;
+    if (rc == 0) {
+        gv_objective_inputs(l, obj, d->t, eps, x_t->data, target->data);
+        in.latent = x_t;
+        in.timestep = timestep;
+        v = gv_dit_forward(m, g, &in);
+        fm = gv_l2_loss(g, v, target, NULL); /* paper eq. 7 as a mean over the latent */
+        loss = gv_scale(g, fm, (float)(scale * d->w_cur * d->w_t));
+        if (d->w_lat > 0) { /* paper eq. 8: L1(x_t - t v, z0*) */
+            gv_tensor *z0 = gv_tensor_from(g, 5, shape, l->z_clean);
+            gv_tensor *lat = gv_l1_loss(g, gv_sub(g, x_t, gv_scale(g, v, d->t)), z0, NULL);
+            loss = gv_add(g, loss, gv_scale(g, lat, (float)(scale * d->w_cur * d->w_lat)));
+        }
+        if (!loss) rc = gv_fail_context("clip n%d", l->n);
+    }
+    if (rc == 0 && backward) rc = gv_backward(g, loss);
+    if (rc == 0 && out) {
+        out->fm = fm->data[0];
+        out->latent = latent_l1(x_t->data, v->data, l->z_clean, d->t, x_t->numel);
+        out->loss = d->w_cur * (d->w_t * out->fm + d->w_lat * out->latent);
+    }
+    gv_graph_set_grad(g, was);
+    return rc;
+}

@@ -1,0 +1,191 @@
+/* The training loop shared by base pretraining and GaussVid fine-tuning (DESIGN 7): a step
+ * takes `batch` clips (chosen by the curriculum, or shuffled), accumulates the gradients of the
+ * objective over them, clips the gradient norm and takes one AdamW step. A step depends only on
+ * its number, the data position and the weights and moments, all of which the checkpoints
+ * store, so a resumed run takes exactly the steps an uninterrupted one would. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/core.h"
+#include "gaussvid/train.h"
+#include "train/train_internal.h"
+
+/* Restores out + ".ckpt" into m and st after checking it belongs to this run. */
+static int resume(gv_dit *m, const gv_model_config *cfg, const char *ckpt, gv_train_state *st)
+{
+    gv_model_config c;
+    gv_train_state s;
+    if (gv_checkpoint_read_info(ckpt, &c, &s)) return -1;
+    /* compared as the JSON the files hold: parsing it back may move a statistic by an ulp */
+    char *was = gv_model_config_to_json(&c), *now = gv_model_config_to_json(cfg);
+    int same = was && now && !strcmp(was, now);
+    free(was), free(now);
+    if (!same) return gv_fail("%s: written for another model config than this run's (%s)", ckpt, cfg->name);
+    if (strcmp(s.kind, st->kind)) return gv_fail("%s: a %s checkpoint, this run is %s", ckpt, s.kind, st->kind);
+    if (strcmp(s.training, st->training))
+        return gv_fail("%s: written with other training options (%s), now %s", ckpt, s.training, st->training);
+    if (strcmp(s.data, st->data)) return gv_fail("%s: trained on other clips (%s), now %s", ckpt, s.data, st->data);
+    if (gv_checkpoint_restore(ckpt, m, &s)) return -1;
+    st->step = s.step;
+    st->data_position = s.data_position;
+    st->clips_used = s.clips_used;
+    st->clips_skipped = s.clips_skipped;
+    st->seconds = s.seconds;
+    st->loss = s.loss;
+    gv_info("%s: resuming at step %ld of %ld", ckpt, s.step, s.steps);
+    return 0;
+}
+
+typedef struct {
+    const gv_train_options *o;
+    gv_data_order order;
+    gv_pretrain_schedule grid;
+    double *difficulty;            /* per clip; NULL without curriculum */
+    int *index;
+    double *weight;
+    float *eps;
+    gv_graph g;
+    FILE *log;
+} loop_ctx;
+
+static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_options *o, int appending)
+{
+    memset(x, 0, sizeof *x);
+    x->o = o;
+    gv_graph_init(&x->g, 0);
+    gv_pretrain_schedule_init(&x->grid, o->shift);
+    if (gv_data_order_init(&x->order, data->count, o->seed)) return -1;
+    int64_t most = 0;
+    for (int i = 0; i < data->count; i++)
+        if (gv_clip_latents_z_count(&data->clips[i]) > most) most = gv_clip_latents_z_count(&data->clips[i]);
+    x->eps = malloc((size_t)most * sizeof *x->eps);
+    x->index = malloc((size_t)o->batch * sizeof *x->index);
+    x->weight = malloc((size_t)o->batch * sizeof *x->weight);
+    int curriculum = o->objective == GV_OBJECTIVE_FINETUNE && o->curriculum;
+    if (curriculum) x->difficulty = malloc((size_t)data->count * sizeof *x->difficulty);
+    if (!x->eps || !x->index || !x->weight || (curriculum && !x->difficulty)) return gv_fail("training: out of memory");
+    for (int i = 0; curriculum && i < data->count; i++)
+        x->difficulty[i] = gv_curriculum_difficulty(data->clips[i].n, o->n_min, o->n_max);
+    if (o->log_path) {
+        x->log = fopen(o->log_path, appending ? "a" : "w");
+        if (!x->log) return gv_fail("%s: cannot open the log for writing", o->log_path);
+        if (!appending) fprintf(x->log, "step\tseconds\tlr\tloss\tfm\tlatent\tthreshold\tskipped\tclips_per_s\n");
+    }
+    return 0;
+}
+
+static void ctx_free(loop_ctx *x)
+{
+    gv_data_order_free(&x->order);
+    gv_graph_free(&x->g);
+    free(x->difficulty), free(x->index), free(x->weight), free(x->eps);
+    if (x->log) fclose(x->log);
+}
+
+/* One optimiser step; *mean gets the batch's mean losses. */
+static int train_step(gv_dit *m, const gv_latent_set *data, loop_ctx *x, gv_train_state *st, double threshold,
+                      double lr, int *skipped, gv_sample_losses *mean)
+{
+    const gv_train_options *o = x->o;
+    if (gv_curriculum_batch(&x->order, x->difficulty, threshold, o->batch, &st->data_position, x->index, x->weight,
+                            skipped))
+        return -1;
+    memset(mean, 0, sizeof *mean);
+    gv_params_zero_grad(&m->params);
+    for (int b = 0; b < o->batch; b++) {
+        const gv_clip_latents *l = &data->clips[x->index[b]];
+        gv_sample_draw d;
+        gv_sample_losses s;
+        gv_train_draw(o, &x->grid, st->step, b, x->weight[b], gv_clip_latents_z_count(l), x->eps, &d);
+        if (gv_train_sample(m, &x->g, l, o->objective, &d, x->eps, 1.0 / o->batch, 1, &s))
+            return gv_fail_context("step %ld (%s)", st->step + 1, data->names[x->index[b]]);
+        mean->loss += s.loss / o->batch, mean->fm += s.fm / o->batch, mean->latent += s.latent / o->batch;
+    }
+    if (o->clip_norm > 0) gv_clip_grad_norm(&m->params, o->clip_norm);
+    gv_adamw_config ac = gv_adamw_defaults();
+    ac.weight_decay = (float)o->weight_decay;
+    if (gv_adamw_step(&m->params, &ac, (float)lr)) return gv_fail_context("step %ld", st->step + 1);
+    st->step++;
+    st->clips_used += o->batch;
+    st->clips_skipped += *skipped;
+    return 0;
+}
+
+/* The step's line in the log and on the progress bar (threshold < 0: no curriculum). */
+static void show_step(loop_ctx *x, gv_progress *bar, const gv_train_state *st, long done, double lr, double threshold,
+                      int skipped, const gv_sample_losses *mean, double rate)
+{
+    if (x->log)
+        fprintf(x->log, "%ld\t%.2f\t%.3g\t%.6f\t%.6f\t%.6f\t%.4f\t%d\t%.3f\n", st->step, st->seconds, lr, mean->loss,
+                mean->fm, mean->latent, threshold >= 0 ? threshold : 1.0, skipped, rate);
+    char dmax[48] = "";
+    if (threshold >= 0) snprintf(dmax, sizeof dmax, "  dmax %.2f, %d skipped", threshold, skipped);
+    gv_progress_update(bar, done, "step %ld/%ld  loss %.4f (fm %.4f, latent %.4f)%s  %.2f clips/s", st->step,
+                       x->o->steps, st->loss, mean->fm, mean->latent, dmax, rate);
+}
+
+static int save_checkpoint(const char *path, gv_dit *m, const gv_model_config *cfg, const gv_train_state *st,
+                           int with_moments)
+{
+    if (gv_checkpoint_save(path, m, cfg, st, with_moments)) return gv_fail_context("training: step %ld", st->step);
+    return 0;
+}
+
+int gv_train_run(gv_dit *m, const gv_model_config *save_cfg, const gv_latent_set *data, const gv_train_options *o,
+                 const gv_train_state *meta, gv_train_report *report)
+{
+    if (gv_train_check_options(o)) return -1;
+    if (data->count < 1) return gv_fail("training: no training clips");
+    char ckpt[4200];
+    snprintf(ckpt, sizeof ckpt, "%s.ckpt", o->out);
+    gv_train_state st = *meta;
+    st.step = st.data_position = st.clips_used = st.clips_skipped = 0;
+    st.seconds = st.loss = 0;
+    st.steps = o->steps;
+    st.seed = o->seed;
+    gv_train_options_text(o, st.training, sizeof st.training);
+    int resumed = o->resume && gv_file_exists(ckpt);
+    if (resumed && resume(m, save_cfg, ckpt, &st)) return -1;
+    if (o->resume && !resumed) gv_info("%s: no checkpoint, starting at step 0", ckpt);
+    if (st.step > o->steps) return gv_fail("%s: at step %ld, beyond the run's %ld steps", ckpt, st.step, o->steps);
+    long start = st.step, end = o->stop_after > 0 && o->stop_after < o->steps ? o->stop_after : o->steps;
+    loop_ctx x;
+    int rc = ctx_init(&x, data, o, start > 0);
+    gv_lr_schedule sched = {o->cosine ? GV_LR_COSINE : GV_LR_CONSTANT, o->lr, o->min_lr, o->warmup, o->steps};
+    int curriculum = x.difficulty != NULL;
+    gv_progress bar;
+    gv_progress_start(&bar, o->objective == GV_OBJECTIVE_PRETRAIN ? "pretrain" : "train", end > start ? end - start : 0);
+    double t0 = gv_now(), seconds0 = st.seconds, avg = st.loss, first = 0, step_seconds = 0;
+    long used0 = st.clips_used;
+    for (long step = start; rc == 0 && step < end; step++) {
+        double threshold = curriculum ? gv_curriculum_threshold(step, o->steps, o->p_w) : -1, lr = gv_lr_at(&sched, step);
+        int skipped = 0;
+        gv_sample_losses mean;
+        double t_step = gv_now();
+        if ((rc = train_step(m, data, &x, &st, threshold, lr, &skipped, &mean))) break;
+        step_seconds += gv_now() - t_step;
+        avg = step == start ? mean.loss : 0.95 * avg + 0.05 * mean.loss;
+        if (step == start) first = avg;
+        st.loss = avg;
+        double elapsed = gv_now() - t0, rate = step_seconds > 0 ? (double)(st.clips_used - used0) / step_seconds : 0;
+        st.seconds = seconds0 + elapsed;
+        show_step(&x, &bar, &st, step + 1 - start, lr, threshold, skipped, &mean, rate);
+        if (st.step % o->checkpoint_every == 0 || st.step == end) rc = save_checkpoint(ckpt, m, save_cfg, &st, 1);
+    }
+    gv_progress_finish(&bar);
+    if (rc == 0 && st.step == o->steps) rc = save_checkpoint(o->out, m, save_cfg, &st, 0);
+    if (report) {
+        memset(report, 0, sizeof *report);
+        report->start_step = start, report->end_step = st.step;
+        report->clips_used = st.clips_used - used0;
+        report->clips_skipped = st.clips_skipped;
+        report->seconds = gv_now() - t0;
+        report->step_seconds = step_seconds;
+        report->clips_per_second = step_seconds > 0 ? report->clips_used / step_seconds : 0;
+        report->first_loss = first, report->last_loss = avg;
+        report->arena_peak = x.g.arena.peak;
+    }
+    ctx_free(&x);
+    return rc;
+}

@@ -1,0 +1,114 @@
+#!/bin/bash
+# gaussvid pretrain / train: exit codes (0 ok, 1 failure, 2 usage), the files a run writes, an
+# interrupted run resumed bit for bit (the tensor data of the two files compared byte by byte),
+# the ablation flags reaching the run, and bad inputs (no manifest, another network, a corrupt
+# or foreign checkpoint, another run's checkpoint) failing with one line.
+# Fixtures: two tiny synthesised scenes, a dataset built with a few 3DGS iterations, the tiny
+# preset's VAE trained for two steps.
+# Usage: bash train.sh /path/to/gaussvid   ($GV_TMP scratch)
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup train "$1"
+
+# data_bytes FILE: the tensor data of a safetensors file (everything after the header), so two
+# files whose metadata differ (times) can be compared tensor for tensor.
+data_bytes() {
+    local n
+    n=$(od -An -tu8 -N8 "$1" | tr -d ' ')
+    tail -c +$((9 + n)) "$1"
+}
+same_data() { cmp -s <(data_bytes "$1") <(data_bytes "$2"); }
+differ() { ! same_data "$1" "$2"; }
+# meta FILE KEY: one metadata value, from `st inspect --json`.
+meta() { "$G" st inspect --json "$1" | tr ',' '\n' | grep -F "\"$2\":" | head -1; }
+
+cd "$T" || exit 1
+expect 0 "synth a" -- "$G" scene synth --seed 3 --frames 14 --size 32x32 --samples 1 --out A --quiet
+expect 0 "synth b" -- "$G" scene synth --seed 4 --frames 14 --size 32x32 --samples 1 --out B --quiet
+expect 0 "dataset" -- "$G" dataset build --scenes A B --eval-scenes B --intervals 6,8 --iters 20 --clips-per-run 2 \
+    --seed 5 --out D --quiet --threads 1
+expect 0 "vae" -- "$G" vae train --config tiny --scenes A --steps 2 --crop 32x32 --stats-clips 2 --out vae.safetensors --quiet
+
+# Help and usage errors.
+expect 0 "pretrain help" -- "$G" pretrain --help
+has "usage: gaussvid pretrain"
+expect 0 "train help" -- "$G" train --help
+has "--no-progressive-loss"
+expect 0 "listed" -- "$G" help
+has "pretrain"
+expect 2 "pretrain without --out" -- "$G" pretrain --clips D --vae vae.safetensors --config tiny
+expect 2 "pretrain without --vae" -- "$G" pretrain --clips D --config tiny --out x.safetensors
+expect 2 "pretrain zero steps" -- "$G" pretrain --clips D --vae vae.safetensors --config tiny --steps 0 --out x.safetensors
+expect 2 "pretrain bad variant" -- "$G" pretrain --clips D --vae vae.safetensors --config tiny --variant camera=sideways --out x.safetensors
+one_line "sideways"
+expect 2 "train without --base" -- "$G" train --clips D --out x.safetensors
+expect 2 "train negative seed" -- "$G" train --clips D --base b --out x.safetensors --seed -2
+
+# Pretraining: straight, and interrupted after 2 of 4 steps then resumed.
+PRE=(--clips D --config tiny --vae vae.safetensors --steps 4 --batch 2 --checkpoint-every 1 --seed 1 --quiet)
+expect 0 "pretrain" -- "$G" pretrain "${PRE[@]}" --out base.safetensors --log pre.tsv
+has "base.safetensors: base tiny pretrained for 4 steps"
+exists base.safetensors
+exists base.safetensors.ckpt
+exists D/latents_*_both.safetensors
+check "log has a header and 4 steps" test "$(wc -l <pre.tsv)" -eq 5
+check "base kind" grep -qE '"kind":[[:space:]]*"base"' <("$G" st inspect --json base.safetensors)
+expect 0 "pretrain, interrupted" -- "$G" pretrain "${PRE[@]}" --out base2.safetensors --stop-after 2
+has "pretrained to step 2 of 4"
+check "no final file before the end" test ! -e base2.safetensors
+expect 0 "pretrain, resumed" -- "$G" pretrain "${PRE[@]}" --out base2.safetensors --resume
+check "resumed pretraining is bit-exact" same_data base.safetensors base2.safetensors
+check "moments bit-exact too" same_data base.safetensors.ckpt base2.safetensors.ckpt
+
+# Fine-tuning: straight and resumed, with the curriculum and the progressive loss on (S_w 1).
+FT=(--clips D --base base.safetensors --steps 4 --batch 2 --latent-warmup 1 --checkpoint-every 2 --quiet)
+expect 0 "train" -- "$G" train "${FT[@]}" --out ft.safetensors
+has "ft.safetensors: tiny fine-tuned for 4 steps"
+check "finetune kind" grep -qE '"kind":[[:space:]]*"finetune"' <("$G" st inspect --json ft.safetensors)
+check "holds LoRA" grep -q "lora_B.weight" <("$G" st inspect ft.safetensors)
+expect 0 "train, interrupted" -- "$G" train "${FT[@]}" --out ft2.safetensors --stop-after 1
+expect 0 "train, resumed" -- "$G" train "${FT[@]}" --out ft2.safetensors --resume
+check "resumed fine-tuning is bit-exact" same_data ft.safetensors ft2.safetensors
+expect 1 "resume with other options" -- "$G" train "${FT[@]}" --out ft2.safetensors --resume --lr 3e-4
+one_line "written with other training options"
+
+# Each ablation flag reaches the run and changes the trained weights.
+expect 0 "shuffle" -- "$G" train "${FT[@]}" --out shuffle.safetensors --no-curriculum
+check "curriculum off recorded" grep -q "curriculum=0" <(meta shuffle.safetensors training)
+check "shuffle trains other weights" differ ft.safetensors shuffle.safetensors
+expect 0 "no progressive loss" -- "$G" train "${FT[@]}" --out noprog.safetensors --no-progressive-loss
+check "progressive off recorded" grep -q "progressive=0" <(meta noprog.safetensors training)
+check "no progressive loss trains other weights" differ ft.safetensors noprog.safetensors
+for v in camera=none camera=early camera=monolithic anchors=first anchors=none per-frame; do
+    expect 0 "variant $v" -- "$G" train "${FT[@]}" --variant "$v" --out "v_$v.safetensors"
+done
+check "camera none has no camera encoder" test "$("$G" st inspect v_camera=none.safetensors | grep -c camera_encoder)" -eq 0
+check "monolithic has its single conv" grep -q "camera_encoder.conv.weight" <("$G" st inspect v_camera=monolithic.safetensors)
+check "per-frame recorded" grep -qE 'per_frame[^,}]*true' <("$G" st inspect --json v_per-frame.safetensors)
+
+# Bad inputs: exit 1 and one line naming the problem.
+mkdir -p empty
+expect 1 "no manifest" -- "$G" pretrain --clips empty --config tiny --vae vae.safetensors --out x.safetensors --quiet
+one_line "no manifest.json"
+expect 1 "missing VAE" -- "$G" pretrain --clips D --config tiny --vae nothere.safetensors --out x.safetensors --quiet
+one_line "nothere.safetensors"
+expect 1 "config mismatch" -- "$G" train "${FT[@]}" --config small --out x.safetensors
+one_line "another network"
+head -c 3000 ft.safetensors >cut.safetensors
+expect 1 "corrupt base" -- "$G" train "${FT[@]}" --base cut.safetensors --out x.safetensors
+one_line "cut.safetensors"
+expect 1 "not a checkpoint" -- "$G" train "${FT[@]}" --base vae.safetensors --out x.safetensors
+one_line "not a gaussvid checkpoint"
+cp ft.safetensors.ckpt y.safetensors.ckpt
+head -c 5000 ft.safetensors.ckpt >y.safetensors.ckpt
+expect 1 "corrupt resume checkpoint" -- "$G" train "${FT[@]}" --out y.safetensors --resume
+one_line "y.safetensors.ckpt"
+check "nothing half-written" test ! -e x.safetensors -a ! -e y.safetensors
+
+# The throughput benchmark's smoke run (tiny preset, 32x32 clips).
+expect 0 "bench train help" -- "$G" bench train --help
+has "clips per second"
+expect 0 "bench train quick" -- "$G" bench train --quick --preset tiny --height 32 --width 32 --json
+has '"run": "fine-tune"'
+has '"max_rss_mib"'
+expect 2 "bench train bad size" -- "$G" bench train --height 0
+cli_finish

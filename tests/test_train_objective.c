@@ -1,0 +1,254 @@
+/* The training objectives (train.h, train_step.c) on hand-made latents and the tiny model: x_t
+ * and the velocity target of both objectives, the VACE context each allows, the losses of one
+ * sample against an independent computation from the network's own forward pass, how the
+ * weights w_cur, w_t, w_lat and the batch scale enter the gradient, and which tensors receive
+ * gradients in fine-tuning. */
+#include "check.h"
+#include "model_testutil.h"
+#include "gaussvid/train.h"
+
+/* A clip's latents for the tiny preset (32 x 32 pixels: latent 4 x 2 x 4 x 4), random values,
+ * the Plücker field of a real camera path; batch 3 for the per-frame layout. */
+static void make_latents(gv_clip_latents *l, const gv_model_config *c, int batch, uint64_t seed)
+{
+    memset(l, 0, sizeof *l);
+    l->n = 10, l->frames = 5, l->height = 32, l->width = 32, l->batch = batch;
+    l->z_dim = c->vae.z_dim, l->latent_frames = batch == 1 ? 2 : 1, l->lh = 4, l->lw = 4;
+    l->vace_dim = c->dit.vace_in_dim;
+    l->plucker_frames = gv_plucker_packed_frames(batch == 1 ? 5 : 1, c->vae.temporal_factor);
+    CHECK(gv_clip_latents_alloc(l, 1) == 0);
+    gv_fill_normal(l->z_clean, gv_clip_latents_z_count(l), seed, 0, 0.0f, 1.0f);
+    gv_fill_normal(l->z_corrupt, gv_clip_latents_z_count(l), seed + 1, 0, 0.0f, 1.0f);
+    gv_fill_normal(l->vace, gv_clip_latents_vace_count(l), seed + 2, 0, 0.0f, 1.0f);
+    gv_camera cams[5];
+    mt_cameras(cams, 5, 32, 32, 0.1 * (double)(seed % 7));
+    int64_t per = gv_clip_latents_plucker_count(l) / batch;
+    for (int b = 0; b < batch; b++)
+        CHECK(gv_plucker_field(batch == 1 ? cams : cams + 1 + b, batch == 1 ? 5 : 1, 32, 32, c->vae.temporal_factor,
+                               l->plucker + b * per, NULL) == 0);
+}
+
+static void test_inputs_and_context(void)
+{
+    /* hand-made: 2 latent values, batch 3, z_dim 2, vace_dim 5, one latent position */
+    float zc[6] = {1, -2, 3, 0.5f, 0, 4}, zh[6] = {2, 2, -1, 0, 1, 3}, eps[6] = {0.5f, 1, -1, 2, 0, -3};
+    float vace[15], out[15], x[6], v[6];
+    for (int i = 0; i < 15; i++) vace[i] = (float)(i + 1);
+    gv_clip_latents l;
+    memset(&l, 0, sizeof l);
+    l.batch = 3, l.z_dim = 2, l.latent_frames = 1, l.lh = 1, l.lw = 1, l.vace_dim = 5;
+    l.z_clean = zc, l.z_corrupt = zh, l.vace = vace;
+    gv_objective_inputs(&l, GV_OBJECTIVE_FINETUNE, 0.25f, eps, x, v);
+    int ok = 1;
+    for (int i = 0; i < 6; i++) ok &= fabsf(x[i] - (0.75f * zh[i] + 0.25f * eps[i])) < 1e-7f && v[i] == eps[i] - zc[i];
+    CHECK(ok);                                                /* paper eq. 6, 7: from z-hat, target eps - z0* */
+    CHECK_NEAR(x[2], 0.75 * -1 + 0.25 * -1, 1e-7);
+    gv_objective_inputs(&l, GV_OBJECTIVE_PRETRAIN, 0.25f, eps, x, v);
+    ok = 1;
+    for (int i = 0; i < 6; i++) ok &= fabsf(x[i] - (0.75f * zc[i] + 0.25f * eps[i])) < 1e-7f && v[i] == eps[i] - zc[i];
+    CHECK(ok);                                                /* standard flow matching from z0 */
+    gv_objective_vace(&l, GV_OBJECTIVE_FINETUNE, out);
+    CHECK(memcmp(out, vace, sizeof vace) == 0);
+    gv_objective_vace(&l, GV_OBJECTIVE_PRETRAIN, out);
+    ok = 1;
+    for (int b = 0; b < 3; b++)
+        for (int c = 0; c < 5; c++) {
+            float want = c == 2 || c == 3 ? 0.0f : vace[b * 5 + c]; /* reactive channels z..2z-1 zeroed */
+            ok &= out[b * 5 + c] == want;
+        }
+    CHECK(ok);
+}
+
+/* The forward pass the test builds itself: the velocity for x_t of a fine-tuning sample. */
+static float *independent_velocity(gv_dit *m, const gv_clip_latents *l, float t, const float *x_t, gv_objective obj)
+{
+    gv_graph g;
+    gv_graph_init(&g, 0);
+    gv_graph_set_grad(&g, 0);
+    const gv_model_config *c = &m->cfg;
+    int B = l->batch, shape[5] = {B, l->z_dim, l->latent_frames, l->lh, l->lw};
+    float ts[3] = {1000 * t, 1000 * t, 1000 * t};
+    gv_dit_inputs in = gv_dit_inputs_default();
+    in.latent = gv_tensor_from(&g, 5, shape, x_t);
+    in.timestep = ts;
+    in.vace = gv_tensor_from(&g, 5, (int[]){B, c->dit.vace_in_dim, l->latent_frames, 4, 4}, l->vace);
+    if (obj == GV_OBJECTIVE_PRETRAIN) /* reactive channels 4..7 zeroed by hand */
+        for (int b = 0; b < B; b++) memset(in.vace->data + (b * 72 + 4) * l->latent_frames * 16, 0, 4 * l->latent_frames * 16 * sizeof(float));
+    in.text = gv_tensor_new(&g, 3, (int[]){B, c->dit.text_len, c->dit.text_dim});
+    in.plucker = gv_tensor_from(&g, 5, (int[]){B, 6, l->plucker_frames, 32, 32}, l->plucker);
+    gv_tensor *v = gv_dit_forward(m, &g, &in);
+    CHECK(v != NULL);
+    int64_t n = gv_clip_latents_z_count(l);
+    float *out = malloc((size_t)n * sizeof *out);
+    memcpy(out, v->data, (size_t)n * sizeof *out);
+    gv_graph_free(&g);
+    return out;
+}
+
+static void test_sample_losses(void)
+{
+    gv_dit m;
+    CHECK(mt_model(&m, NULL, 3) == 0);
+    gv_clip_latents l;
+    make_latents(&l, &m.cfg, 1, 11);
+    int64_t n = gv_clip_latents_z_count(&l);
+    float *eps = malloc((size_t)n * sizeof *eps), *x = malloc((size_t)n * sizeof *x), *v = malloc((size_t)n * sizeof *v);
+    gv_fill_normal(eps, n, 99, 0, 0.0f, 1.0f);
+    gv_graph g;
+    gv_graph_init(&g, 0);
+    gv_sample_draw d = {0.2f, 1.0, 1.0, 0.1};
+    gv_sample_losses s;
+    /* Wan's zero-initialised head: v = 0, so L_FM = mean (eps - z0*)^2 and L_lat = mean |x_t - z0*| */
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, eps, 1.0, 0, &s) == 0);
+    gv_objective_inputs(&l, GV_OBJECTIVE_FINETUNE, 0.2f, eps, x, v);
+    double fm = 0, lat = 0;
+    for (int64_t i = 0; i < n; i++) fm += (double)v[i] * v[i], lat += fabs(x[i] - l.z_clean[i]);
+    CHECK_NEAR(s.fm, fm / n, 1e-5 * fm / n);
+    CHECK_NEAR(s.latent, lat / n, 1e-5 * lat / n);
+    CHECK_NEAR(s.loss, s.fm + 0.1 * s.latent, 1e-9);
+    /* a "pretrained" network: the losses from its own forward pass, computed here */
+    mt_randomize(&m, MT_ALL, 5);
+    for (int obj = 0; obj < 2; obj++) {
+        gv_sample_draw e = {0.37f, obj == GV_OBJECTIVE_PRETRAIN ? 1.7 : 1.0, 0.8, 0.05};
+        CHECK(gv_train_sample(&m, &g, &l, (gv_objective)obj, &e, eps, 1.0, 0, &s) == 0);
+        gv_objective_inputs(&l, (gv_objective)obj, 0.37f, eps, x, v);
+        float *vel = independent_velocity(&m, &l, 0.37f, x, (gv_objective)obj);
+        double want_fm = 0, want_lat = 0;
+        for (int64_t i = 0; i < n; i++) {
+            want_fm += ((double)vel[i] - v[i]) * ((double)vel[i] - v[i]);
+            want_lat += fabs((double)x[i] - 0.37 * vel[i] - l.z_clean[i]);
+        }
+        want_fm /= n, want_lat /= n;
+        printf("objective %d: L_FM %.6f (independent %.6f), L_lat %.6f (%.6f)\n", obj, s.fm, want_fm, s.latent, want_lat);
+        CHECK_NEAR(s.fm, want_fm, 1e-5 * want_fm);
+        CHECK_NEAR(s.latent, want_lat, 1e-5 * want_lat);
+        CHECK_NEAR(s.loss, e.w_cur * (e.w_t * want_fm + e.w_lat * want_lat), 1e-5 * s.loss);
+        free(vel);
+    }
+    /* pretraining ignores the renders: z-hat and the reactive context do not change its loss */
+    gv_sample_losses p1, p2, f1, f2;
+    gv_sample_draw e = {0.3f, 1.0, 1.0, 0.1};
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_PRETRAIN, &e, eps, 1.0, 0, &p1) == 0);
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &e, eps, 1.0, 0, &f1) == 0);
+    gv_fill_normal(l.z_corrupt, n, 1234, 0, 0.0f, 1.0f);
+    for (int c = 4; c < 8; c++) gv_fill_normal(l.vace + c * 32, 32, 77 + (uint64_t)c, 0, 0.0f, 1.0f);
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_PRETRAIN, &e, eps, 1.0, 0, &p2) == 0);
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &e, eps, 1.0, 0, &f2) == 0);
+    CHECK(p1.fm == p2.fm && p1.latent == p2.latent);
+    CHECK(f1.fm != f2.fm);
+    gv_graph_free(&g);
+    gv_clip_latents_free(&l);
+    free(eps), free(x), free(v);
+    gv_dit_free(&m);
+}
+
+/* Gradients of all trainable tensors, concatenated. */
+static double *grads(gv_dit *m, gv_graph *g, const gv_clip_latents *l, const gv_sample_draw *d, const float *eps,
+                     double scale, int64_t *count)
+{
+    gv_params_zero_grad(&m->params);
+    CHECK(gv_train_sample(m, g, l, GV_OBJECTIVE_FINETUNE, d, eps, scale, 1, NULL) == 0);
+    int64_t total = gv_params_count(&m->params, 1), k = 0;
+    double *out = malloc((size_t)total * sizeof *out);
+    for (int i = 0; i < m->params.n; i++) {
+        const gv_param *p = m->params.items[i];
+        if (!p->trainable) continue;
+        for (int64_t j = 0; j < p->t.numel; j++) out[k++] = p->t.grad ? p->t.grad[j] : 0.0;
+    }
+    *count = total;
+    return out;
+}
+
+static void test_gradient_weights(void)
+{
+    gv_dit m;
+    CHECK(mt_model(&m, NULL, 4) == 0);
+    mt_randomize(&m, MT_ALL, 8);
+    CHECK(gv_dit_set_train_mode(&m, GV_DIT_FINETUNE) == 0);
+    gv_clip_latents l;
+    make_latents(&l, &m.cfg, 1, 21);
+    int64_t n = gv_clip_latents_z_count(&l), k = 0;
+    float *eps = malloc((size_t)n * sizeof *eps);
+    gv_fill_normal(eps, n, 5, 0, 0.0f, 1.0f);
+    gv_graph g;
+    gv_graph_init(&g, 0);
+    gv_sample_draw d0 = {0.1f, 1.0, 1.0, 0.0}, d1 = d0, d2 = d0, dc = d0;
+    d1.w_lat = 0.1, d2.w_lat = 0.2, dc.w_cur = 0.6;
+    double *g0 = grads(&m, &g, &l, &d0, eps, 1.0, &k), *g1 = grads(&m, &g, &l, &d1, eps, 1.0, &k);
+    double *g2 = grads(&m, &g, &l, &d2, eps, 1.0, &k), *gs = grads(&m, &g, &l, &d0, eps, 0.5, &k);
+    double *gc = grads(&m, &g, &l, &dc, eps, 1.0, &k);
+    /* the loss is linear in the weights: g(w_lat) = g_FM + w_lat g_lat, g(scale) = scale g,
+     * g(w_cur) = w_cur g */
+    double lin = 0, sc = 0, cur = 0, norm = 0, lat = 0;
+    for (int64_t i = 0; i < k; i++) {
+        lin = fmax(lin, fabs((g2[i] - g1[i]) - (g1[i] - g0[i])));
+        sc = fmax(sc, fabs(gs[i] - 0.5 * g0[i]));
+        cur = fmax(cur, fabs(gc[i] - 0.6 * g0[i]));
+        norm = fmax(norm, fabs(g0[i]));
+        lat = fmax(lat, fabs(g1[i] - g0[i]));
+    }
+    printf("gradients: max |g| %.3g, latent part %.3g, linearity error %.2g, scale %.2g, w_cur %.2g\n", norm, lat, lin,
+           sc, cur);
+    CHECK(norm > 0 && lat > 1e-4 * norm);
+    CHECK(lin <= 1e-5 * norm && sc <= 1e-6 * norm && cur <= 1e-6 * norm);
+    /* fine-tuning: LoRA and the camera encoder get gradients, the frozen base has none */
+    int base_grad = 0, lora_b = 0, camera = 0;
+    for (int i = 0; i < m.params.n; i++) {
+        const gv_param *p = m.params.items[i];
+        const gv_weight_spec *s = gv_weight_list_find(&m.weights, p->t.name);
+        double mx = 0;
+        for (int64_t j = 0; p->t.grad && j < p->t.numel; j++) mx = fmax(mx, fabs(p->t.grad[j]));
+        if (!p->trainable && p->t.grad) base_grad = 1;
+        if (strstr(p->t.name, "lora_B") && mx > 0) lora_b = 1;
+        if (s->module == GV_MODULE_CAMERA && mx > 0) camera = 1;
+    }
+    CHECK(!base_grad && lora_b && camera);
+    free(g0), free(g1), free(g2), free(gs), free(gc), free(eps);
+    gv_graph_free(&g);
+    gv_clip_latents_free(&l);
+    gv_dit_free(&m);
+}
+
+static void test_per_frame_sample(void)
+{
+    gv_dit m;
+    CHECK(mt_model(&m, "per-frame", 6) == 0);
+    mt_randomize(&m, MT_ALL, 9);
+    gv_clip_latents l;
+    make_latents(&l, &m.cfg, 3, 31);
+    int64_t n = gv_clip_latents_z_count(&l);
+    CHECK(n == 3 * 4 * 16);
+    float *eps = malloc((size_t)n * sizeof *eps), *x = malloc((size_t)n * sizeof *x), *v = malloc((size_t)n * sizeof *v);
+    gv_fill_normal(eps, n, 8, 0, 0.0f, 1.0f);
+    gv_graph g;
+    gv_graph_init(&g, 0);
+    gv_sample_draw d = {0.25f, 1.0, 1.0, 0.0};
+    gv_sample_losses s;
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, eps, 1.0, 0, &s) == 0);
+    gv_objective_inputs(&l, GV_OBJECTIVE_FINETUNE, 0.25f, eps, x, v);
+    float *vel = independent_velocity(&m, &l, 0.25f, x, GV_OBJECTIVE_FINETUNE);
+    double want = 0;
+    for (int64_t i = 0; i < n; i++) want += ((double)vel[i] - v[i]) * ((double)vel[i] - v[i]);
+    CHECK_NEAR(s.fm, want / n, 1e-5 * want / n);
+    /* a clip prepared without cameras cannot feed a camera variant */
+    float *keep = l.plucker;
+    l.plucker = NULL;
+    CHECK_FAILS_WITH(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, eps, 1.0, 0, &s), "Plücker");
+    l.plucker = keep;
+    l.z_dim = 5;
+    CHECK_FAILS_WITH(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, eps, 1.0, 0, &s), "channels");
+    l.z_dim = 4;
+    free(vel), free(eps), free(x), free(v);
+    gv_graph_free(&g);
+    gv_clip_latents_free(&l);
+    gv_dit_free(&m);
+}
+
+int main(void)
+{
+    test_inputs_and_context();
+    test_sample_losses();
+    test_gradient_weights();
+    test_per_frame_sample();
+    return check_summary();
+}
