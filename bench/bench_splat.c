@@ -83,10 +83,9 @@ static int time_stages(gv_splat_trainer *t, int reps, checkpoint *c)
                                    r->colors, r->opacities, bg, t->render, r->final_T,
                                    r->n_contrib);
         double s4 = gv_now();
-        gv_splat_rasterize_backward(&r->tiles, v->width, v->height, r->means2d, r->conics,
-                                    r->colors, r->opacities, bg, r->final_T, r->n_contrib,
-                                    t->d_render, r->d_means2d, r->d_conics, r->d_colors,
-                                    r->d_opacities);
+        gv_splat_rasterize_backward(&r->tiles, v->width, v->height, bg, r->final_T,
+                                    r->n_contrib, t->d_render, r->d_means2d, r->d_conics,
+                                    r->d_colors, r->d_opacities);
         double s5 = gv_now();
         gv_splat_project_backward(r->tiles.n_visible, r->tiles.visible, g->means, g->scales,
                                   g->rotations, v, r->d_means2d, r->d_conics, t->grad.means,
@@ -114,6 +113,7 @@ typedef struct {
     char name[256];
     int width, height, n_train, iterations;
     double seconds, cpu_seconds, phase_median_ms[GV_PHASES], iteration_median_ms;
+    double phase_mean_ms[GV_PHASES]; /* densification is rare: its median is 0 */
     int n_checkpoints;
     checkpoint checkpoints[64];
     double held_psnr, held_ssim, train_psnr, train_ssim;
@@ -201,7 +201,12 @@ static int bench_scene(const char *dir, const gv_bench_splat_options *o, scene_r
     gv_progress_finish(&bar);
     res->seconds = gv_now() - start - stage_time;
     res->cpu_seconds = cpu_seconds() - cpu_start - stage_cpu;
-    for (int p = 0; p < GV_PHASES; p++) res->phase_median_ms[p] = median(phase[p], o->iterations);
+    for (int p = 0; p < GV_PHASES; p++) {
+        double sum = 0;
+        for (int it = 0; it < o->iterations; it++) sum += phase[p][it];
+        res->phase_mean_ms[p] = sum / o->iterations;
+        res->phase_median_ms[p] = median(phase[p], o->iterations);
+    }
     res->iteration_median_ms = median(total, o->iterations);
     res->final_gaussians = t.params.n;
     ok = evaluate(&t, &scene, o->interval, res);
@@ -231,6 +236,10 @@ static void print_table(const scene_result *r, const gv_bench_splat_options *o, 
     fprintf(out, "median ms per iteration:");
     for (int p = 0; p < GV_PHASES; p++) fprintf(out, " %s %.2f,", phase_names[p], r->phase_median_ms[p]);
     fprintf(out, " total %.2f\n", r->iteration_median_ms);
+    fprintf(out, "mean ms per iteration:");
+    for (int p = 0; p < GV_PHASES; p++)
+        fprintf(out, " %s %.2f,", phase_names[p], r->phase_mean_ms[p]);
+    fprintf(out, " total %.2f\n", 1e3 * r->seconds / r->iterations);
     fprintf(out, "seconds for %d iterations: %.1f (CPU %.1f s over all threads); final Gaussians %d\n",
             r->iterations, r->seconds, r->cpu_seconds, r->final_gaussians);
     fprintf(out, "held-out PSNR %.3f dB, SSIM %.4f; training views PSNR %.3f dB, SSIM %.4f\n",
@@ -250,6 +259,9 @@ static cJSON *result_json(const scene_result *r)
     cJSON_AddNumberToObject(o, "median_ms_per_iteration", r->iteration_median_ms);
     cJSON *ph = cJSON_AddObjectToObject(o, "median_ms");
     for (int p = 0; p < GV_PHASES; p++) cJSON_AddNumberToObject(ph, phase_names[p], r->phase_median_ms[p]);
+    cJSON *pm = cJSON_AddObjectToObject(o, "mean_ms");
+    for (int p = 0; p < GV_PHASES; p++)
+        cJSON_AddNumberToObject(pm, phase_names[p], r->phase_mean_ms[p]);
     cJSON *cps = cJSON_AddArrayToObject(o, "checkpoints");
     for (int k = 0; k < r->n_checkpoints; k++) {
         const checkpoint *c = &r->checkpoints[k];

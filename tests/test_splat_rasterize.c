@@ -48,9 +48,9 @@ static void render(const scene2d *s, raster_out *o)
 
 static void backward(const scene2d *s, raster_out *o, const float *d_image)
 {
-    gv_splat_rasterize_backward(&o->tiles, s->width, s->height, s->m2, s->conic, s->color,
-                                s->opacity, s->bg, o->final_T, o->n_contrib, d_image, o->d_m2,
-                                o->d_conic, o->d_color, o->d_opacity);
+    gv_splat_rasterize_backward(&o->tiles, s->width, s->height, s->bg, o->final_T,
+                                o->n_contrib, d_image, o->d_m2, o->d_conic, o->d_color,
+                                o->d_opacity);
 }
 
 static double *reference_image(const scene2d *s, uint64_t *signature)

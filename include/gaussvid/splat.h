@@ -127,16 +127,15 @@ void gv_splat_rasterize_forward(const gv_splat_tiles *t, int width, int height,
                                 const float bg[3], float *image, float *final_T,
                                 int *n_contrib);
 /* Back to front per pixel, mirroring the forward (section 10.1; the alpha clamp is ignored
- * in the gradient as in 3DGS). WRITES, for the visible Gaussians, d_means2d (pixels),
- * d_conics (full derivative w.r.t. A, B, C), d_colors and d_opacities (activated). Uses
- * t->entry_grads; the sums over pixels are in a fixed order whatever the thread count. */
-void gv_splat_rasterize_backward(gv_splat_tiles *t, int width, int height,
-                                 const float *means2d, const float *conics,
-                                 const float *colors, const float *opacities,
-                                 const float bg[3], const float *final_T,
-                                 const int *n_contrib, const float *d_image,
-                                 float *d_means2d, float *d_conics, float *d_colors,
-                                 float *d_opacities);
+ * in the gradient as in 3DGS), from dL/dimage. Must follow the forward on the same tiles:
+ * it reads the forward's per-tile copy of the Gaussians' 2D data, final_T and n_contrib.
+ * WRITES, for the visible Gaussians, d_means2d (pixels), d_conics (full derivative w.r.t.
+ * A, B, C), d_colors and d_opacities (activated). Uses t->entry_grads; the sums over pixels
+ * are in a fixed order whatever the thread count. */
+void gv_splat_rasterize_backward(gv_splat_tiles *t, int width, int height, const float bg[3],
+                                 const float *final_T, const int *n_contrib,
+                                 const float *d_image, float *d_means2d, float *d_conics,
+                                 float *d_colors, float *d_opacities);
 
 /* ---- reference.c -----------------------------------------------------------------------
  * Plain double-precision implementation of the same formulas, written independently of the

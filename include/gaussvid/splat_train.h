@@ -11,6 +11,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/gaussians.h"
 #include "gaussvid/image.h"
+#include "gaussvid/metrics.h"
 #include "gaussvid/render.h"
 #include "gaussvid/scene.h"
 
@@ -65,13 +66,37 @@ int gv_splat_adam_init(gv_splat_adam *a, const gv_splat_adam_config *c,
                        const gv_gaussians *params, double spatial_lr_scale);
 /* update_learning_rate(iteration): the position rate of this iteration. */
 void gv_splat_adam_set_iteration(gv_splat_adam *a, long iteration);
-/* One Adam step of the groups in group_mask on the listed rows (rows NULL: every row, the
- * reference's dense Adam). Only the first n_coeffs SH coefficients per channel are touched:
- * those above the active degree have zero gradient and zero moments, so Adam would leave
- * them unchanged anyway. */
-void gv_splat_adam_step(gv_splat_adam *a, gv_gaussians *params, const gv_gaussians *grad,
-                        const int *rows, int n_rows, int n_coeffs, unsigned group_mask);
+/* One Adam step of the groups in group_mask. Only the listed rows (ascending) have a
+ * gradient, and the step consumes it: their rows of grad are zero afterwards; every other
+ * row of grad must be zero. With all_rows every row of params steps, the reference's dense
+ * Adam; otherwise only the listed rows do, and the others keep their values and moments.
+ * Only the first n_coeffs SH coefficients per channel are touched: those above the active
+ * degree have zero gradient and zero moments, so Adam would leave them unchanged anyway. */
+void gv_splat_adam_step(gv_splat_adam *a, gv_gaussians *params, gv_gaussians *grad,
+                        const int *rows, int n_rows, int all_rows, int n_coeffs,
+                        unsigned group_mask);
 void gv_splat_adam_free(gv_splat_adam *a);
+
+/* ---- loss.c -----------------------------------------------------------------------------
+ * The training loss (section 11): L = (1 - lambda) L1 + lambda (1 - SSIM) of a render
+ * against its target (float HWC, 3 channels), SSIM as section 19.2, computed in float32 as
+ * the reference does, and dL/drender (section 11.1). */
+typedef struct {
+    int width, height, threads;  /* what the buffers were made for */
+    float g[GV_SSIM_WINDOW];     /* the normalised 1-D window */
+    float *maps, *scratch, *mass_x, *mass_y, *zeros;
+    double *row_sums;
+} gv_splat_loss_work;
+
+typedef struct { double loss, l1, ssim; } gv_splat_loss_value;
+
+/* Buffers for width x height images (w starts zeroed); fails on a bad size or no memory. */
+int gv_splat_loss_reserve(gv_splat_loss_work *w, int width, int height);
+/* The loss of render against target, and dL/drender into d_render (may be NULL). Fails on a
+ * bad size, no memory, or a non-finite loss. */
+int gv_splat_loss(gv_splat_loss_work *w, const float *render, const float *target, int width,
+                  int height, double lambda, float *d_render, gv_splat_loss_value *value);
+void gv_splat_loss_free(gv_splat_loss_work *w);
 
 /* ---- densify.c --------------------------------------------------------------------------
  * Adaptive density control (section 14.2-14.3). */
@@ -151,6 +176,7 @@ typedef struct {
     gv_splat_adam adam;
     gv_splat_densify_stats stats;
     gv_splat_renderer renderer;
+    gv_splat_loss_work loss_work;
     float *render, *target, *d_render, *densify_grad;
     int *order, order_pos;      /* this epoch's shuffled view order */
     gv_rng view_rng, bg_rng, split_rng;

@@ -310,6 +310,12 @@ void gv_splat_project_backward(int n_list, const int *list, const float *means,
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < n_list; k++) {
         size_t i = (size_t)list[k];
+        if (k + 8 < n_list) { /* the list is sparse: fetch its rows ahead */
+            size_t h = (size_t)list[k + 8];
+            __builtin_prefetch(means + 3 * h), __builtin_prefetch(scales + 3 * h);
+            __builtin_prefetch(rotations + 4 * h), __builtin_prefetch(d_means2d + 2 * h);
+            __builtin_prefetch(d_conics + 3 * h), __builtin_prefetch(d_means + 3 * h, 1);
+        }
         project_one_backward(means + 3 * i, scales + 3 * i, rotations + 4 * i, view,
                              d_means2d + 2 * i, d_conics + 3 * i, d_means + 3 * i,
                              d_scales + 3 * i, d_rotations + 4 * i);

@@ -24,6 +24,7 @@
 #include "splat/simd8.h"
 
 enum { TILE_PIXELS = GV_SPLAT_TILE * GV_SPLAT_TILE, GRAD_WIDTH = 9, SPLAT_WIDTH = 12 };
+enum { PREFETCH = 8 }; /* how far ahead scattered rows are fetched */
 
 /* Packs the 2D data of each visible Gaussian by depth rank (the order in which the tiles
  * read them): mean, conic, opacity, colour and the half extents of its alpha box. */
@@ -33,6 +34,11 @@ static void pack_splats(const gv_splat_tiles *t, const float *means2d, const flo
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < t->n_visible; k++) {
         int g = t->depth_order[k];
+        if (k + PREFETCH < t->n_visible) { /* depth order is random in memory */
+            int h = t->depth_order[k + PREFETCH];
+            __builtin_prefetch(means2d + 2 * h), __builtin_prefetch(conics + 3 * h);
+            __builtin_prefetch(colors + 3 * h), __builtin_prefetch(opacities + h);
+        }
         float *s = t->splats + (size_t)k * SPLAT_WIDTH;
         float A = conics[3 * g], B = conics[3 * g + 1], C = conics[3 * g + 2], o = opacities[g];
         s[0] = means2d[2 * g], s[1] = means2d[2 * g + 1];
@@ -127,6 +133,7 @@ SIMD8_INLINE int blend_splat(blend_state *st, const splat2d *s, int j, int px0, 
 {
     int stopped = 0;
     i8 contributor = {j + 1, j + 1, j + 1, j + 1, j + 1, j + 1, j + 1, j + 1};
+    f8 centres = f8_splat((float)px0) + LANE_CENTRES; /* pixel centres of the lanes at x = 0 */
     for (int y = s->y0; y <= s->y1; y++) {
         if (st->row_live[y] == 0) continue;
         float dy = s->my - ((float)(py0 + y) + 0.5f), cdd = s->C * dy * dy;
@@ -134,7 +141,7 @@ SIMD8_INLINE int blend_splat(blend_state *st, const splat2d *s, int j, int px0, 
         for (int x = s->x0; x <= s->x1; x += 8) {
             int p = y * GV_SPLAT_TILE + x;
             i8 live = i8_load(st->live + p);
-            f8 dx = s->mx - (f8_splat((float)(px0 + x)) + LANE_CENTRES), G;
+            f8 dx = s->mx - (centres + (float)x), G; /* exact centres: one rounding */
             f8 power = splat_power(s, dx, dy, cdd);
             f8 alpha = splat_alpha(s, power, &G);
             i8 ok = live & (power <= 0.0f) & (alpha >= GV_SPLAT_ALPHA_MIN);
@@ -162,7 +169,7 @@ SIMD8_CLONES static void render_tile(const gv_splat_tiles *t, int tile, int widt
     int px0 = (tile % t->tiles_x) * GV_SPLAT_TILE, py0 = (tile / t->tiles_x) * GV_SPLAT_TILE;
     int tw = width - px0 < GV_SPLAT_TILE ? width - px0 : GV_SPLAT_TILE;
     int th = height - py0 < GV_SPLAT_TILE ? height - py0 : GV_SPLAT_TILE;
-    blend_state st __attribute__((aligned(16)));
+    blend_state st __attribute__((aligned(32)));
     for (int p = 0; p < TILE_PIXELS; p++) {
         st.T[p] = 1, st.C[0][p] = st.C[1][p] = st.C[2][p] = 0, st.last[p] = 0;
         st.live[p] = (p % GV_SPLAT_TILE) < tw && (p / GV_SPLAT_TILE) < th ? -1 : 0;
@@ -200,77 +207,83 @@ void gv_splat_rasterize_forward(const gv_splat_tiles *t, int width, int height,
         render_tile(t, tile, width, height, bg, image, final_T, n_contrib);
 }
 
-/* Per-pixel state of the backward walk (reference renderCUDA backward). */
+/* Per-pixel state of the backward walk (reference renderCUDA backward). The colour sums
+ * of the reference enter only through their dot product with dL/dpixel, so they are kept as
+ * that scalar: acc = g . (colour behind, normalised), last_gc = g . (last colour). */
 typedef struct {
-    float T[TILE_PIXELS], T_final[TILE_PIXELS];
-    float accum[3][TILE_PIXELS], last_alpha[TILE_PIXELS], last_col[3][TILE_PIXELS];
-    float dpix[3][TILE_PIXELS], bg_dot[TILE_PIXELS];
+    float T[TILE_PIXELS], T_final[TILE_PIXELS], acc[TILE_PIXELS], last_gc[TILE_PIXELS];
+    float last_alpha[TILE_PIXELS], dpix[3][TILE_PIXELS], bg_dot[TILE_PIXELS];
     int32_t n_contrib[TILE_PIXELS];
     int row_contrib[GV_SPLAT_TILE]; /* largest n_contrib of each row */
 } tile_state;
 
 /* Gradient row of one entry (position j of the tile list) from all the tile's pixels it
- * was blended into: d means2d (2), d conic (3), d colour (3), d opacity. */
+ * was blended into: d means2d (2), d conic (3), d colour (3), d opacity. With q = dL/dG G
+ * per pixel and d = mean - pixel, dG/dmean = -G K d and dG/dK = -G d d^T / 2, so the sums
+ * needed are of q dx, q dy, q dx^2, q dx dy, q dy^2; dy is constant along a row, so a row
+ * sums q, q dx, q dx^2 and folds them in. */
 SIMD8_INLINE void entry_backward(tile_state *st, const splat2d *s, int j, int px0, int py0,
-                           float row[GRAD_WIDTH])
+                                 float row[GRAD_WIDTH])
 {
-    f8 zero = f8_splat(0.0f), g[GRAD_WIDTH];
-    for (int k = 0; k < GRAD_WIDTH; k++) g[k] = zero;
+    f8 zero = f8_splat(0.0f);
+    f8 e_qx = zero, e_qy = zero, e_qxx = zero, e_qxy = zero, e_qyy = zero;
+    f8 e_o = zero, e_c0 = zero, e_c1 = zero, e_c2 = zero;
     i8 jv = {j, j, j, j, j, j, j, j};
+    f8 centres = f8_splat((float)px0) + LANE_CENTRES; /* pixel centres of the lanes at x = 0 */
     for (int y = s->y0; y <= s->y1; y++) {
         if (j >= st->row_contrib[y]) continue;
         float dy = s->my - ((float)(py0 + y) + 0.5f), cdd = s->C * dy * dy;
+        f8 r_q = zero, r_qx = zero, r_qxx = zero;
         for (int x = s->x0; x <= s->x1; x += 8) {
             int p = y * GV_SPLAT_TILE + x;
             i8 m = jv < i8_load(st->n_contrib + p); /* this pixel blended entry j */
-            f8 dx = s->mx - (f8_splat((float)(px0 + x)) + LANE_CENTRES), G;
+            f8 dx = s->mx - (centres + (float)x), G; /* exact centres: one rounding */
             f8 power = splat_power(s, dx, dy, cdd);
             f8 alpha = splat_alpha(s, power, &G);
             m &= (power <= 0.0f) & (alpha >= GV_SPLAT_ALPHA_MIN);
             if (!i8_any(m)) continue;
             /* transmittance before this Gaussian */
-            f8 T = f8_load(st->T + p) / (1.0f - alpha);
-            f8_store(st->T + p, f8_select(m, T, f8_load(st->T + p)));
-            f8 dchannel_dcolor = alpha * T, dL_dalpha = zero;
-            f8 last_alpha = f8_load(st->last_alpha + p);
-            for (int c = 0; c < 3; c++) {
-                /* accum = colour behind this Gaussian, normalised by T after it */
-                f8 accum = last_alpha * f8_load(st->last_col[c] + p) +
-                           (1.0f - last_alpha) * f8_load(st->accum[c] + p);
-                f8_store(st->accum[c] + p, f8_select(m, accum, f8_load(st->accum[c] + p)));
-                f8_store(st->last_col[c] + p,
-                         f8_select(m, f8_splat(s->col[c]), f8_load(st->last_col[c] + p)));
-                f8 dpix = f8_load(st->dpix[c] + p);
-                dL_dalpha += (s->col[c] - accum) * dpix;
-                g[5 + c] += f8_mask(m, dchannel_dcolor * dpix);
-            }
-            dL_dalpha *= T;
+            f8 inv = 1.0f / (1.0f - alpha), T_after = f8_load(st->T + p), T = T_after * inv;
+            f8_store(st->T + p, f8_select(m, T, T_after));
+            f8 g0 = f8_load(st->dpix[0] + p), g1 = f8_load(st->dpix[1] + p);
+            f8 g2 = f8_load(st->dpix[2] + p);
+            f8 gc = g0 * s->col[0] + g1 * s->col[1] + g2 * s->col[2];
+            f8 last_alpha = f8_load(st->last_alpha + p), acc_old = f8_load(st->acc + p);
+            f8 acc = last_alpha * f8_load(st->last_gc + p) + (1.0f - last_alpha) * acc_old;
+            f8_store(st->acc + p, f8_select(m, acc, acc_old));
+            f8_store(st->last_gc + p, f8_select(m, gc, f8_load(st->last_gc + p)));
             f8_store(st->last_alpha + p, f8_select(m, alpha, last_alpha));
-            dL_dalpha += (-f8_load(st->T_final + p) / (1.0f - alpha)) * f8_load(st->bg_dot + p);
+            f8 dL_dalpha = (gc - acc) * T +
+                           (-f8_load(st->T_final + p) * inv) * f8_load(st->bg_dot + p);
+            dL_dalpha = f8_mask(m, dL_dalpha);
+            f8 w = f8_mask(m, alpha * T); /* d pixel / d colour */
+            e_c0 += w * g0, e_c1 += w * g1, e_c2 += w * g2;
             /* alpha = o G (the 0.99 clamp is ignored, as in 3DGS) */
-            f8 dL_dG = s->o * dL_dalpha;
-            f8 gdx = G * dx, gdy = G * dy;
-            f8 dG_ddelx = -gdx * s->A - gdy * s->B;
-            f8 dG_ddely = -gdy * s->C - gdx * s->B;
-            g[0] += f8_mask(m, dL_dG * dG_ddelx);
-            g[1] += f8_mask(m, dL_dG * dG_ddely);
-            g[2] += f8_mask(m, -0.5f * gdx * dx * dL_dG);
-            g[3] += f8_mask(m, -gdx * dy * dL_dG); /* B appears twice in d^T K d */
-            g[4] += f8_mask(m, -0.5f * gdy * dy * dL_dG);
-            g[8] += f8_mask(m, G * dL_dalpha);
+            e_o += G * dL_dalpha;
+            f8 q = (s->o * G) * dL_dalpha, qx = q * dx;
+            r_q += q, r_qx += qx, r_qxx += qx * dx;
         }
+        e_qx += r_qx, e_qxx += r_qxx;
+        e_qy += dy * r_q, e_qxy += dy * r_qx, e_qyy += (dy * dy) * r_q;
     }
-    for (int k = 0; k < GRAD_WIDTH; k++) row[k] = f8_sum(g[k]);
+    float qx = f8_sum(e_qx), qy = f8_sum(e_qy);
+    row[0] = -s->A * qx - s->B * qy;
+    row[1] = -s->C * qy - s->B * qx;
+    row[2] = -0.5f * f8_sum(e_qxx);
+    row[3] = -f8_sum(e_qxy); /* B appears twice in d^T K d */
+    row[4] = -0.5f * f8_sum(e_qyy);
+    row[5] = f8_sum(e_c0), row[6] = f8_sum(e_c1), row[7] = f8_sum(e_c2);
+    row[8] = f8_sum(e_o);
 }
 
 SIMD8_CLONES static void backward_tile(gv_splat_tiles *t, int tile, int width, int height,
-                          const float bg[3], const float *final_T, const int *n_contrib,
-                          const float *d_image)
+                                       const float bg[3], const float *final_T,
+                                       const int *n_contrib, const float *d_image)
 {
     int px0 = (tile % t->tiles_x) * GV_SPLAT_TILE, py0 = (tile / t->tiles_x) * GV_SPLAT_TILE;
     int tw = width - px0 < GV_SPLAT_TILE ? width - px0 : GV_SPLAT_TILE;
     int th = height - py0 < GV_SPLAT_TILE ? height - py0 : GV_SPLAT_TILE;
-    tile_state st __attribute__((aligned(16)));
+    tile_state st __attribute__((aligned(64)));
     memset(&st, 0, sizeof st);
     int max_contrib = 0;
     for (int y = 0; y < th; y++)
@@ -300,16 +313,12 @@ SIMD8_CLONES static void backward_tile(gv_splat_tiles *t, int tile, int width, i
     }
 }
 
-void gv_splat_rasterize_backward(gv_splat_tiles *t, int width, int height,
-                                 const float *means2d, const float *conics,
-                                 const float *colors, const float *opacities,
-                                 const float bg[3], const float *final_T,
-                                 const int *n_contrib, const float *d_image,
-                                 float *d_means2d, float *d_conics, float *d_colors,
-                                 float *d_opacities)
+void gv_splat_rasterize_backward(gv_splat_tiles *t, int width, int height, const float bg[3],
+                                 const float *final_T, const int *n_contrib,
+                                 const float *d_image, float *d_means2d, float *d_conics,
+                                 float *d_colors, float *d_opacities)
 {
     int n_tiles = t->tiles_x * t->tiles_y;
-    pack_splats(t, means2d, conics, colors, opacities);
 #pragma omp parallel for schedule(dynamic, 1)
     for (int tile = 0; tile < n_tiles; tile++)
         backward_tile(t, tile, width, height, bg, final_T, n_contrib, d_image);
@@ -319,6 +328,11 @@ void gv_splat_rasterize_backward(gv_splat_tiles *t, int width, int height,
     for (int k = 0; k < t->n_visible; k++) {
         size_t g = (size_t)t->depth_order[k];
         float sum[GRAD_WIDTH] = {0};
+        int ahead = t->gauss_offsets[k] + PREFETCH; /* the rows are scattered over the tiles */
+        if (ahead < t->n_entries) {
+            const float *row = t->entry_grads + (size_t)t->entry_of[ahead] * GRAD_WIDTH;
+            __builtin_prefetch(row), __builtin_prefetch(row + GRAD_WIDTH - 1);
+        }
         for (int e = t->gauss_offsets[k]; e < t->gauss_offsets[k + 1]; e++) {
             const float *row = t->entry_grads + (size_t)t->entry_of[e] * GRAD_WIDTH;
             for (int i = 0; i < GRAD_WIDTH; i++) sum[i] += row[i];

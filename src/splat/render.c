@@ -84,9 +84,8 @@ int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
         return gv_fail("render: gradient holds %d Gaussians of SH degree %d, need %d of degree "
                        "%d", grad->capacity, grad->sh_degree, g->n, g->sh_degree);
     const gv_splat_view *view = &r->view;
-    gv_splat_rasterize_backward(&r->tiles, view->width, view->height, r->means2d, r->conics,
-                                r->colors, r->opacities, r->bg, r->final_T, r->n_contrib,
-                                d_image, r->d_means2d, r->d_conics, r->d_colors,
+    gv_splat_rasterize_backward(&r->tiles, view->width, view->height, r->bg, r->final_T,
+                                r->n_contrib, d_image, r->d_means2d, r->d_conics, r->d_colors,
                                 r->d_opacities);
     int nv = r->tiles.n_visible;
     const int *vis = r->tiles.visible;

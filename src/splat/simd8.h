@@ -8,14 +8,8 @@
 #include <stdint.h>
 #include <string.h>
 
-/* The tile functions are compiled twice on x86-64, for AVX2 and for the baseline, and the
- * loader picks one for the machine (GCC function multi-versioning). AVX2 without FMA: no
- * fused multiply-adds, so both versions round every operation the same way. */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define SIMD8_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define SIMD8_CLONES
-#endif
+/* The tile functions are compiled twice, for AVX2 and for the baseline (clones.h). */
+#include "splat/clones.h"
 
 /* Helpers that must be inlined into the cloned tile functions. */
 #define SIMD8_INLINE static inline __attribute__((always_inline))

@@ -8,10 +8,14 @@
  * with t the group's own step count. The moments are two gv_gaussians parallel to the
  * model, so densification moves them with the parameters row by row (densify.c).
  *
- * Rows: the reference's dense Adam steps every row, also those not visible in the view
- * (zero gradient: the moments decay and the parameter keeps moving by its momentum).
- * Given a row list, only those rows are stepped and the others keep their moments as they
- * are, as the 2024 3DGS "sparse_adam" does (docs/SPLAT_TRAINING.md measures both). */
+ * Rows: only the rows of a list (the Gaussians visible in the view) have a gradient, and
+ * the step consumes it: those rows of the gradient are zero afterwards, and every other row
+ * must be zero already (the trainer's invariant). The reference's dense Adam steps every
+ * row, also those not visible (zero gradient: the moments decay and the parameter keeps
+ * moving by its momentum); it reads the whole gradient as a stream, which measured faster
+ * than picking out the listed rows. The visible-only step of the 2024 3DGS "sparse_adam"
+ * leaves the other rows and their moments as they are (docs/SPLAT_TRAINING.md measures
+ * both). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -108,108 +112,142 @@ static void update_sh_row(float *restrict p, float *restrict m, float *restrict 
     }
 }
 
-/* The listed rows [lo, hi) of an array of `width` floats per row, columns [offset, offset +
- * count), count <= 4: gathered into contiguous scratch so that the vector loop runs over
- * many rows at once, then written back. Much faster than a short loop per row. */
-enum { GATHER_ROWS = 256, GATHER_MAX = 4 };
-static void update_gathered(float *p, float *m, float *v, const float *g, size_t width,
-                            int offset, int count, const int *rows, int lo, int hi,
-                            const adam_coeffs *k)
+/* The small groups (means, opacity, scales, rotations: width <= 4 floats per row) of the
+ * rows [lo, hi) of every row (dense) in one vector loop; the gradient is read as a stream
+ * (unlisted rows hold zeros), which is faster than picking out the listed rows, and the
+ * listed rows' gradients are zeroed after use. */
+enum { BLOCK = 256, MAX_WIDTH = 4 };
+static void update_dense_block(float *p, float *m, float *v, float *g, int width, int lo,
+                               int hi, const int *list, int k0, int k1, const adam_coeffs *k)
 {
-    float tp[GATHER_ROWS * GATHER_MAX], tm[GATHER_ROWS * GATHER_MAX];
-    float tv[GATHER_ROWS * GATHER_MAX], tg[GATHER_ROWS * GATHER_MAX];
-    for (int r0 = lo; r0 < hi; r0 += GATHER_ROWS) {
-        int r1 = r0 + GATHER_ROWS < hi ? r0 + GATHER_ROWS : hi, n = 0;
-        for (int r = r0; r < r1; r++) {
-            size_t at = (size_t)rows[r] * width + (size_t)offset;
-            for (int j = 0; j < count; j++, n++)
-                tp[n] = p[at + j], tm[n] = m[at + j], tv[n] = v[at + j], tg[n] = g[at + j];
-        }
-        update(tp, tm, tv, tg, n, k);
-        n = 0;
-        for (int r = r0; r < r1; r++) {
-            size_t at = (size_t)rows[r] * width + (size_t)offset;
-            for (int j = 0; j < count; j++, n++) p[at + j] = tp[n], m[at + j] = tm[n], v[at + j] = tv[n];
-        }
+    size_t at = (size_t)lo * width;
+    update(p + at, m + at, v + at, g + at, width * (hi - lo), k);
+    for (int j = k0; j < k1; j++) /* a plain loop: width is at most 4 */
+        for (int c = 0; c < width; c++) g[(size_t)list[j] * width + c] = 0;
+}
+
+/* The same groups of the listed rows list[k0 .. k1) only (sparse): gathered into contiguous
+ * scratch so that the vector loop runs over many rows at once, then written back; the
+ * gradients are zeroed after use. */
+static void update_listed_block(float *p, float *m, float *v, float *g, int width,
+                                const int *list, int k0, int k1, const adam_coeffs *k)
+{
+    float tp[BLOCK * MAX_WIDTH], tm[BLOCK * MAX_WIDTH], tv[BLOCK * MAX_WIDTH];
+    float tg[BLOCK * MAX_WIDTH];
+    if (k1 <= k0) return;
+    int n = 0;
+    for (int j = k0; j < k1; j++) {
+        size_t at = (size_t)list[j] * width;
+        for (int c = 0; c < width; c++, n++)
+            tp[n] = p[at + c], tm[n] = m[at + c], tv[n] = v[at + c], tg[n] = g[at + c];
+    }
+    update(tp, tm, tv, tg, n, k);
+    n = 0;
+    for (int j = k0; j < k1; j++) {
+        size_t at = (size_t)list[j] * width;
+        for (int c = 0; c < width; c++, n++)
+            p[at + c] = tp[n], m[at + c] = tm[n], v[at + c] = tv[n], g[at + c] = 0;
     }
 }
 
-/* The rows [lo, hi) of the list (rows NULL: the rows themselves) of every active group.
- * Unlisted rows are updated as contiguous runs so that the loops vectorise. */
-static void step_block(gv_splat_adam *a, gv_gaussians *p, const gv_gaussians *g,
-                       const adam_coeffs *k, const int *active, const int *rows, int lo, int hi,
-                       int n_coeffs)
-{
-    gv_gaussians *m = &a->m, *v = &a->v;
-    size_t w = (size_t)3 * gv_sh_coefficient_count(p->sh_degree);
-    if (!rows) {
-        size_t at = (size_t)lo, n = (size_t)(hi - lo);
-        if (active[GV_ADAM_MEANS])
-            update(p->means + 3 * at, m->means + 3 * at, v->means + 3 * at, g->means + 3 * at,
-                   (int)(3 * n), &k[GV_ADAM_MEANS]);
-        if (active[GV_ADAM_OPACITY])
-            update(p->opacities + at, m->opacities + at, v->opacities + at, g->opacities + at,
-                   (int)n, &k[GV_ADAM_OPACITY]);
-        if (active[GV_ADAM_SCALES])
-            update(p->scales + 3 * at, m->scales + 3 * at, v->scales + 3 * at, g->scales + 3 * at,
-                   (int)(3 * n), &k[GV_ADAM_SCALES]);
-        if (active[GV_ADAM_ROTATIONS])
-            update(p->rotations + 4 * at, m->rotations + 4 * at, v->rotations + 4 * at,
-                   g->rotations + 4 * at, (int)(4 * n), &k[GV_ADAM_ROTATIONS]);
-    }
-    if (rows) {
-        if (active[GV_ADAM_MEANS])
-            update_gathered(p->means, m->means, v->means, g->means, 3, 0, 3, rows, lo, hi,
-                            &k[GV_ADAM_MEANS]);
-        if (active[GV_ADAM_OPACITY])
-            update_gathered(p->opacities, m->opacities, v->opacities, g->opacities, 1, 0, 1, rows,
-                            lo, hi, &k[GV_ADAM_OPACITY]);
-        if (active[GV_ADAM_SCALES])
-            update_gathered(p->scales, m->scales, v->scales, g->scales, 3, 0, 3, rows, lo, hi,
-                            &k[GV_ADAM_SCALES]);
-        if (active[GV_ADAM_ROTATIONS])
-            update_gathered(p->rotations, m->rotations, v->rotations, g->rotations, 4, 0, 4, rows,
-                            lo, hi, &k[GV_ADAM_ROTATIONS]);
-    }
-    /* SH rows: DC and higher coefficients in one loop per row with per-column constants. */
-    int c0 = active[GV_ADAM_SH_DC] ? 0 : 3;
-    int c1 = active[GV_ADAM_SH_REST] ? 3 * n_coeffs : 3;
-    if (c0 >= c1) return;
-    float step[48], bc2[48];
-    for (int j = c0; j < c1; j++) {
-        const adam_coeffs *kj = &k[j < 3 ? GV_ADAM_SH_DC : GV_ADAM_SH_REST];
-        step[j] = kj->step_size, bc2[j] = kj->bc2_sqrt;
-    }
-    const adam_coeffs *kb = &k[c0 == 0 ? GV_ADAM_SH_DC : GV_ADAM_SH_REST];
-    for (int r = lo; r < hi; r++) {
-        size_t s = w * (size_t)(rows ? rows[r] : r);
-        update_sh_row(p->sh + s, m->sh + s, v->sh + s, g->sh + s, c0, c1, step, bc2, kb);
-    }
-}
-
-void gv_splat_adam_step(gv_splat_adam *a, gv_gaussians *params, const gv_gaussians *grad,
-                        const int *rows, int n_rows, int n_coeffs, unsigned group_mask)
-{
-    int max_coeffs = gv_sh_coefficient_count(params->sh_degree);
-    if (n_coeffs > max_coeffs) n_coeffs = max_coeffs;
+/* The per-group pointers and constants of one step. */
+typedef struct {
+    gv_splat_adam *a;
+    gv_gaussians *p, *g;
     adam_coeffs k[GV_ADAM_GROUPS];
     int active[GV_ADAM_GROUPS];
-    for (int group = 0; group < GV_ADAM_GROUPS; group++) {
-        active[group] = (group_mask >> group) & 1u;
-        if (!active[group]) continue;
-        long t = ++a->step[group];
-        k[group] = (adam_coeffs){(float)a->config.beta1, (float)a->config.beta2,
-                                 (float)(a->lr[group] / (1.0 - pow(a->config.beta1, (double)t))),
-                                 (float)sqrt(1.0 - pow(a->config.beta2, (double)t)),
-                                 (float)a->config.eps};
+    int c0, c1;                       /* SH columns stepped */
+    float step[48], bc2[48];          /* per SH column: DC and higher coefficients differ */
+} step_plan;
+
+/* One block: rows [lo, hi) of every row (dense; list[k0 .. k1) are the listed rows among
+ * them), or the listed rows list[k0 .. k1) alone (lo < 0). */
+static void step_block(const step_plan *s, const int *list, int k0, int k1, int lo, int hi)
+{
+    gv_splat_adam *a = s->a;
+    gv_gaussians *p = s->p, *m = &a->m, *v = &a->v, *g = s->g;
+    struct { int group, width; float *p, *m, *v, *g; } small[4] = {
+        {GV_ADAM_MEANS, 3, p->means, m->means, v->means, g->means},
+        {GV_ADAM_OPACITY, 1, p->opacities, m->opacities, v->opacities, g->opacities},
+        {GV_ADAM_SCALES, 3, p->scales, m->scales, v->scales, g->scales},
+        {GV_ADAM_ROTATIONS, 4, p->rotations, m->rotations, v->rotations, g->rotations}};
+    for (int f = 0; f < 4; f++) {
+        if (!s->active[small[f].group]) { /* not stepped: the gradient is dropped */
+            for (int j = k0; j < k1; j++)
+                for (int c = 0; c < small[f].width; c++)
+                    small[f].g[(size_t)list[j] * small[f].width + c] = 0;
+            continue;
+        }
+        const adam_coeffs *k = &s->k[small[f].group];
+        if (lo >= 0)
+            update_dense_block(small[f].p, small[f].m, small[f].v, small[f].g, small[f].width, lo,
+                               hi, list, k0, k1, k);
+        else
+            update_listed_block(small[f].p, small[f].m, small[f].v, small[f].g, small[f].width,
+                                list, k0, k1, k);
     }
-    /* One parallel loop over blocks of rows for all groups. */
-    enum { BLOCK = 1024 };
-    int n_blocks = (n_rows + BLOCK - 1) / BLOCK;
+    size_t w = (size_t)3 * gv_sh_coefficient_count(p->sh_degree);
+    if (s->c0 >= s->c1) {
+        for (int j = k0; j < k1; j++) memset(g->sh + (size_t)list[j] * w, 0, sizeof(float) * w);
+        return;
+    }
+    const adam_coeffs *kb = &s->k[s->c0 == 0 ? GV_ADAM_SH_DC : GV_ADAM_SH_REST];
+    int n_rows = lo >= 0 ? hi - lo : k1 - k0;
+    for (int i = 0, j = k0; i < n_rows; i++) {
+        size_t r = (size_t)(lo >= 0 ? lo + i : list[k0 + i]) * w;
+        update_sh_row(p->sh + r, m->sh + r, v->sh + r, g->sh + r, s->c0, s->c1, s->step, s->bc2,
+                      kb);
+        if (lo < 0 || (j < k1 && list[j] == lo + i)) { /* consumed: zero it (still in cache) */
+            memset(g->sh + r, 0, sizeof(float) * w);
+            j++;
+        }
+    }
+}
+
+/* First position of the ascending list at or after row r. */
+static int lower_bound(const int *list, int n, int r)
+{
+    int lo = 0, hi = n;
+    while (lo < hi) {
+        int mid = lo + (hi - lo) / 2;
+        if (list[mid] < r) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
+}
+
+void gv_splat_adam_step(gv_splat_adam *a, gv_gaussians *params, gv_gaussians *grad,
+                        const int *rows, int n_rows, int all_rows, int n_coeffs,
+                        unsigned group_mask)
+{
+    step_plan s = {.a = a, .p = params, .g = grad};
+    int max_coeffs = gv_sh_coefficient_count(params->sh_degree);
+    if (n_coeffs > max_coeffs) n_coeffs = max_coeffs;
+    for (int group = 0; group < GV_ADAM_GROUPS; group++) {
+        s.active[group] = (group_mask >> group) & 1u;
+        if (!s.active[group]) continue;
+        long t = ++a->step[group];
+        s.k[group] = (adam_coeffs){(float)a->config.beta1, (float)a->config.beta2,
+                                   (float)(a->lr[group] / (1.0 - pow(a->config.beta1, (double)t))),
+                                   (float)sqrt(1.0 - pow(a->config.beta2, (double)t)),
+                                   (float)a->config.eps};
+    }
+    /* SH: DC and higher coefficients in one loop per row with per-column constants. */
+    s.c0 = s.active[GV_ADAM_SH_DC] ? 0 : 3;
+    s.c1 = s.active[GV_ADAM_SH_REST] ? 3 * n_coeffs : 3;
+    for (int j = s.c0; j < s.c1; j++) {
+        const adam_coeffs *kj = &s.k[j < 3 ? GV_ADAM_SH_DC : GV_ADAM_SH_REST];
+        s.step[j] = kj->step_size, s.bc2[j] = kj->bc2_sqrt;
+    }
+    int n = all_rows ? params->n : n_rows, n_blocks = (n + BLOCK - 1) / BLOCK;
 #pragma omp parallel for schedule(static)
     for (int b = 0; b < n_blocks; b++) {
-        int lo = b * BLOCK, hi = lo + BLOCK < n_rows ? lo + BLOCK : n_rows;
-        step_block(a, params, grad, k, active, rows, lo, hi, n_coeffs);
+        int lo = b * BLOCK, hi = lo + BLOCK < n ? lo + BLOCK : n;
+        if (all_rows)
+            step_block(&s, rows, lower_bound(rows, n_rows, lo), lower_bound(rows, n_rows, hi),
+                       lo, hi);
+        else
+            step_block(&s, rows, lo, hi, -1, -1);
     }
 }
 

@@ -20,7 +20,6 @@
 #include <string.h>
 
 #include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
 #include "gaussvid/splat_train.h"
 
 /* Philox streams of one training run, derived from the seed. */
@@ -139,6 +138,7 @@ void gv_splat_trainer_free(gv_splat_trainer *t)
     gv_splat_adam_free(&t->adam);
     gv_splat_densify_stats_free(&t->stats);
     gv_splat_renderer_free(&t->renderer);
+    gv_splat_loss_free(&t->loss_work);
     free(t->views), free(t->order), free(t->render), free(t->target), free(t->d_render);
     free(t->densify_grad);
     memset(t, 0, sizeof *t);
@@ -157,24 +157,6 @@ static int next_view(gv_splat_trainer *t)
         t->order_pos = 0;
     }
     return t->order[t->order_pos++];
-}
-
-/* L = (1 - l) L1 + l (1 - SSIM) and dL/drender (section 11.1); autograd's sign(0) = 0. */
-static double loss_and_gradient(gv_splat_trainer *t, int width, int height)
-{
-    long count = (long)width * height * 3;
-    double lambda = t->opt.lambda_dssim;
-    double ssim = gv_ssim_with_gradient(t->render, t->target, width, height, 3, t->d_render);
-    if (isnan(ssim)) return NAN;
-    float w_l1 = (float)((1.0 - lambda) / (double)count), w_ssim = (float)-lambda;
-    double l1 = 0;
-    for (long q = 0; q < count; q++) {
-        float d = t->render[q] - t->target[q];
-        l1 += fabsf(d);
-        float sign = d > 0 ? 1.0f : d < 0 ? -1.0f : 0.0f;
-        t->d_render[q] = w_l1 * sign + w_ssim * t->d_render[q];
-    }
-    return (1.0 - lambda) * l1 / (double)count + lambda * (1.0 - ssim);
 }
 
 static void background(gv_splat_trainer *t, float bg[3])
@@ -212,7 +194,9 @@ static int density_control(gv_splat_trainer *t)
 }
 
 /* After densification the rows moved: the gradient buffers follow the new capacity and
- * start from zero (the reference's new tensors have no gradient). */
+ * start from zero (the reference's new tensors have no gradient). Between densifications
+ * they stay zero outside the rows the backward writes, because Adam consumes (zeroes)
+ * those. */
 static int resize_buffers(gv_splat_trainer *t)
 {
     int cap = t->params.capacity;
@@ -232,23 +216,6 @@ static int resize_buffers(gv_splat_trainer *t)
     return 0;
 }
 
-/* Zeroes the gradient rows the backward wrote, so that every other row stays zero. */
-static void clear_visible_gradients(gv_splat_trainer *t)
-{
-    const int *vis = t->renderer.tiles.visible;
-    int w = 3 * gv_sh_coefficient_count(t->grad.sh_degree);
-    gv_gaussians *g = &t->grad;
-#pragma omp parallel for schedule(static)
-    for (int k = 0; k < t->renderer.tiles.n_visible; k++) {
-        size_t i = (size_t)vis[k];
-        memset(g->means + 3 * i, 0, 3 * sizeof(float));
-        memset(g->sh + w * i, 0, (size_t)w * sizeof(float));
-        g->opacities[i] = 0;
-        memset(g->scales + 3 * i, 0, 3 * sizeof(float));
-        memset(g->rotations + 4 * i, 0, 4 * sizeof(float));
-    }
-}
-
 int gv_splat_trainer_step(gv_splat_trainer *t)
 {
     int it = ++t->iteration;
@@ -265,10 +232,11 @@ int gv_splat_trainer_step(gv_splat_trainer *t)
         return gv_fail_context("train: iteration %d", it);
     double t1 = gv_now();
     gv_image_to_float(&t->images[v], t->target);
-    t->loss = loss_and_gradient(t, view->width, view->height);
-    if (!isfinite(t->loss))
-        return gv_fail("train: the loss is %g at iteration %d (view %s)", t->loss, it,
-                       t->cameras[v].name);
+    gv_splat_loss_value loss;
+    if (gv_splat_loss(&t->loss_work, t->render, t->target, view->width, view->height,
+                      t->opt.lambda_dssim, t->d_render, &loss) != 0)
+        return gv_fail_context("train: iteration %d (view %s)", it, t->cameras[v].name);
+    t->loss = loss.loss;
     t->ema_loss = it == 1 ? t->loss : 0.4 * t->loss + 0.6 * t->ema_loss;
     double t2 = gv_now();
     if (gv_splat_render_backward(&t->renderer, &t->params, t->d_render, &t->grad, t->densify_grad))
@@ -283,12 +251,10 @@ int gv_splat_trainer_step(gv_splat_trainer *t)
         unsigned groups = GV_ADAM_ALL_GROUPS & ~(control & 2 ? 1u << GV_ADAM_OPACITY : 0u);
         const gv_splat_renderer *r = &t->renderer;
         int n_coeffs = gv_sh_coefficient_count(t->active_degree);
-        if (it < t->opt.iterations && t->opt.sparse_adam)
-            gv_splat_adam_step(&t->adam, &t->params, &t->grad, r->tiles.visible,
-                               r->tiles.n_visible, n_coeffs, groups);
-        else if (it < t->opt.iterations)
-            gv_splat_adam_step(&t->adam, &t->params, &t->grad, NULL, t->params.n, n_coeffs, groups);
-        clear_visible_gradients(t);
+        /* The last iteration does not step (train.py): its gradient is only dropped. */
+        if (it >= t->opt.iterations) groups = 0;
+        gv_splat_adam_step(&t->adam, &t->params, &t->grad, r->tiles.visible, r->tiles.n_visible,
+                           groups != 0 && !t->opt.sparse_adam, n_coeffs, groups);
     }
     double t5 = gv_now();
     t->seconds[GV_PHASE_RENDER] += t1 - t0, t->seconds[GV_PHASE_LOSS] += t2 - t1;
