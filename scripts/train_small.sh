@@ -1,0 +1,111 @@
+#!/usr/bin/env bash
+# The small preset's whole recipe from nothing: procedural scenes, the paired clip dataset
+# (sparse 3DGS artifacts), the VAE, the base first-last-frame model, GaussVid fine-tuning and
+# the evaluation on scenes never used in training. A stage whose output exists is skipped,
+# and the long stages resume mid-way (--resume), so the script can be stopped and run again.
+#
+# Usage: scripts/train_small.sh [WORK_DIR]          (default: runs/small)
+# Environment:
+#   GAUSSVID     the program (default build/gaussvid)
+#   SHARED       the shared scenes (default ../shared/data/scenes; courtyard trains,
+#                livingroom is held out)
+#   QUICK=1      a smoke run of every stage in a few minutes (tiny scenes, few steps): checks
+#                that the stages chain, measures nothing
+#   Stage sizes: ITERS, INTERVALS, CLIPS_PER_RUN, VAE_STEPS, PRETRAIN_STEPS, TRAIN_STEPS, BATCH
+#
+# Outputs in WORK_DIR: scenes/, data/ (train and eval splits), vae.safetensors,
+# base.safetensors, gaussvid.safetensors, eval.json and eval.md, times.tsv (seconds per stage).
+set -euo pipefail
+export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} # threads sleep while they wait (docs/BENCHMARKS.md)
+
+G=${GAUSSVID:-build/gaussvid}
+W=${1:-runs/small}
+SHARED=${SHARED:-../shared/data/scenes}
+QUICK=${QUICK:-0}
+
+TRAIN_SEEDS="11 12 13"
+EVAL_SEEDS="21"
+if [ "$QUICK" = 1 ]; then
+  SYNTH=(--frames 25 --size 64x48 --samples 1)
+  ITERS=${ITERS:-50} INTERVALS=${INTERVALS:-6} CLIPS_PER_RUN=${CLIPS_PER_RUN:-2}
+  VAE_STEPS=${VAE_STEPS:-4} PRETRAIN_STEPS=${PRETRAIN_STEPS:-4} TRAIN_STEPS=${TRAIN_STEPS:-4}
+  BATCH=${BATCH:-1} VAE_CROP=32x32 SHARED_SCENES=""
+else
+  SYNTH=()
+  ITERS=${ITERS:-8000} INTERVALS=${INTERVALS:-6:26:4} CLIPS_PER_RUN=${CLIPS_PER_RUN:-16}
+  VAE_STEPS=${VAE_STEPS:-3000} PRETRAIN_STEPS=${PRETRAIN_STEPS:-5000}
+  TRAIN_STEPS=${TRAIN_STEPS:-5000} BATCH=${BATCH:-2} VAE_CROP=64x64
+  SHARED_SCENES="courtyard livingroom"
+fi
+
+[ -x "$G" ] || { echo "train_small.sh: $G: not built (run make)" >&2; exit 1; }
+mkdir -p "$W/scenes"
+TIMES="$W/times.tsv"
+
+# stage NAME OUTPUT COMMAND...: runs COMMAND unless OUTPUT exists; records its seconds.
+stage() {
+  local name=$1 out=$2
+  shift 2
+  if [ -e "$out" ]; then
+    echo "== $name: $out exists, skipped"
+    return
+  fi
+  echo "== $name"
+  local start=$SECONDS
+  "$@"
+  printf '%s\t%d\n' "$name" $((SECONDS - start)) >> "$TIMES"
+}
+
+# 1. Scenes: procedural rooms (train and eval seeds) beside the shared scenes.
+train_scenes=() eval_scenes=() eval_names=()
+for s in $TRAIN_SEEDS; do
+  stage "synth room-$s" "$W/scenes/room-$s" "$G" scene synth --seed "$s" "${SYNTH[@]}" --out "$W/scenes/room-$s" --quiet
+  train_scenes+=("$W/scenes/room-$s")
+done
+for s in $EVAL_SEEDS; do
+  stage "synth room-$s" "$W/scenes/room-$s" "$G" scene synth --seed "$s" "${SYNTH[@]}" --out "$W/scenes/room-$s" --quiet
+  eval_scenes+=("$W/scenes/room-$s") eval_names+=("room-$s")
+done
+for s in $SHARED_SCENES; do
+  [ -d "$SHARED/$s" ] || { echo "train_small.sh: $SHARED/$s: no such scene" >&2; exit 1; }
+  if [ "$s" = livingroom ]; then eval_scenes+=("$SHARED/$s") eval_names+=("$s")
+  else train_scenes+=("$SHARED/$s"); fi
+done
+eval_list=$(IFS=,; echo "${eval_names[*]}")
+
+# 2. The clip dataset: every scene at every interval, two runs side by side (one thread each).
+#    dataset build resumes by itself; its manifest lists both splits.
+build_dataset() {
+  "$G" dataset build --scenes "${train_scenes[@]}" "${eval_scenes[@]}" --eval-scenes "$eval_list" \
+    --intervals "$INTERVALS" --iters "$ITERS" --clips-per-run "$CLIPS_PER_RUN" --sampling random \
+    --seed 0 --jobs 2 --out "$W/data"
+  touch "$W/data/.complete"
+}
+stage "dataset" "$W/data/.complete" build_dataset
+"$G" dataset stats "$W/data" > "$W/data/stats.txt"
+
+# 3. The VAE, on the frames of the training scenes; reconstruction measured on the others.
+stage "vae" "$W/vae.safetensors" "$G" vae train --config small --scenes "${train_scenes[@]}" \
+  --eval-scenes "${eval_scenes[@]}" --steps "$VAE_STEPS" --crop "$VAE_CROP" --resume \
+  --out "$W/vae.safetensors"
+
+# 4. The base first-last-frame model on clean clips (stands in for pretrained Wan2.1-VACE).
+stage "pretrain" "$W/base.safetensors" "$G" pretrain --clips "$W/data" --config small \
+  --vae "$W/vae.safetensors" --steps "$PRETRAIN_STEPS" --batch "$BATCH" --resume \
+  --log "$W/pretrain.tsv" --out "$W/base.safetensors"
+
+# 5. GaussVid fine-tuning: LoRA + camera encoder, curriculum, progressive latent loss.
+stage "train" "$W/gaussvid.safetensors" "$G" train --clips "$W/data" \
+  --base "$W/base.safetensors" --steps "$TRAIN_STEPS" --batch "$BATCH" --resume \
+  --log "$W/train.tsv" --out "$W/gaussvid.safetensors"
+
+# 6. Evaluation on the held-out scenes' clips.
+evaluate() {
+  "$G" eval --ckpt "$W/gaussvid.safetensors" --clips "$W/data" --split eval --json "$W/eval.json.tmp" \
+    > "$W/eval.md"
+  mv "$W/eval.json.tmp" "$W/eval.json"
+}
+stage "eval" "$W/eval.json" evaluate
+cat "$W/eval.md"
+echo "stage times (s):"
+cat "$TIMES"
