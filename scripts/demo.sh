@@ -3,12 +3,12 @@
 # synthesise it, train sparse-view 3D Gaussian Splatting on every 6th frame, render the
 # held-out frames and evaluate them (PSNR / SSIM against the ground truth).
 # Usage: scripts/demo.sh path/to/gaussvid OUTDIR
-# Environment: GV_DEMO_SEED (scene, default 1), GV_DEMO_ITERS (training, default 3000).
+# Environment: GV_DEMO_SEED (scene, default 1), GV_DEMO_ITERS (training, default 2000).
 set -euo pipefail
 gaussvid=${1:-build/gaussvid}
 out=${2:-demo}
 seed=${GV_DEMO_SEED:-1}
-iters=${GV_DEMO_ITERS:-3000}
+iters=${GV_DEMO_ITERS:-2000}
 interval=6
 start=$(date +%s)
 
