@@ -564,6 +564,7 @@ static void test_run_record(const char *dir)
     snprintf(r.split, sizeof r.split, "train");
     r.n = 10, r.iters = 8000, r.n_train = 16, r.n_clips = 4;
     r.seconds = 120.25, r.train_seconds = 100.5, r.render_seconds = 18.0;
+    r.train_frames = 16, r.train_psnr = 33.5, r.train_ssim = 0.96875;
     CHECK(gv_run_record_alloc(&r, 3) == 0);
     const double psnr[3] = {20.5, 22.25, INFINITY}, ssim[3] = {0.5, 0.75, 1.0};
     for (int i = 0; i < 3; i++) r.held_out[i] = i + 1, r.psnr[i] = psnr[i], r.ssim[i] = ssim[i];
@@ -577,6 +578,7 @@ static void test_run_record(const char *dir)
     CHECK(back.held_out[2] == 3 && back.psnr[1] == 22.25 && back.ssim[0] == 0.5);
     CHECK_NEAR(back.psnr_mean, r.psnr_mean, 1e-9);
     CHECK(back.seconds == 120.25 && back.train_seconds == 100.5 && back.render_seconds == 18.0);
+    CHECK(back.train_frames == 16 && back.train_psnr == 33.5 && back.train_ssim == 0.96875);
     gv_run_record_free(&back);
     gv_run_record_free(&r);
     write_text(path, "{\"scene\": \"a\", \"split\": \"train\", \"n\": 6}");
@@ -585,6 +587,15 @@ static void test_run_record(const char *dir)
                      "\"clips\": 1, \"seconds\": 1, \"train_seconds\": 1, \"frames\": [{\"frame\": 1, "
                      "\"psnr\": 20, \"ssim\": 2}]}");
     CHECK_FAILS_WITH(gv_run_record_read(path, &back), "frames[0]");
+    /* Without "train" (records of older builds) it reads, with train_frames 0; a bad one fails. */
+    write_text(path, "{\"scene\": \"a\", \"split\": \"train\", \"n\": 6, \"iters\": 1, \"train_views\": 3, "
+                     "\"clips\": 1, \"seconds\": 1, \"train_seconds\": 1, \"frames\": []}");
+    CHECK(gv_run_record_read(path, &back) == 0 && back.train_frames == 0);
+    gv_run_record_free(&back);
+    write_text(path, "{\"scene\": \"a\", \"split\": \"train\", \"n\": 6, \"iters\": 1, \"train_views\": 3, "
+                     "\"clips\": 1, \"seconds\": 1, \"train_seconds\": 1, \"frames\": [], "
+                     "\"train\": {\"psnr\": 30, \"ssim\": 0.9, \"frames\": 0}}");
+    CHECK_FAILS_WITH(gv_run_record_read(path, &back), "\"train\" needs");
     write_text(path, "not json");
     CHECK_FAILS_WITH(gv_run_record_read(path, &back), "run.json: not a JSON object");
 }

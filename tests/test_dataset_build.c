@@ -170,8 +170,24 @@ static void check_clips(const char *out, const gv_manifest *m)
     CHECK(ok);
 }
 
-/* PSNR of the stand-in's corruption over the held-out frames, computed here from the
- * definition, and the run record's. */
+/* PSNR of the stand-in's corruption of one frame, from the definition. */
+static double stand_in_psnr(const char *dir, int frame, int n)
+{
+    char png[4400];
+    snprintf(png, sizeof png, "%s/images/frame_%05d.png", dir, frame);
+    gv_image truth;
+    CHECK(gv_image_read(png, &truth) == 0);
+    double se = 0;
+    for (int p = 0; p < W * H * 3; p++) {
+        double d = (corrupt(truth.pixels[p], n) - truth.pixels[p]) / 255.0;
+        se += d * d;
+    }
+    gv_image_free(&truth);
+    return -10 * log10(se / (W * H * 3));
+}
+
+/* The run record's PSNR over the held-out frames and over the training views (frames 0, n,
+ * 2n, ..., rendered by the same stand-in), against the definition. */
 static void check_record(const char *out, const char *scene, const char *dir, int n)
 {
     char path[4400];
@@ -183,21 +199,15 @@ static void check_record(const char *out, const char *scene, const char *dir, in
     double sum = 0;
     for (int i = 0; i < r.n_held_out; i++) {
         CHECK(r.held_out[i] % n != 0);
-        char png[4400];
-        snprintf(png, sizeof png, "%s/images/frame_%05d.png", dir, r.held_out[i]);
-        gv_image truth;
-        CHECK(gv_image_read(png, &truth) == 0);
-        double se = 0;
-        for (int p = 0; p < W * H * 3; p++) {
-            double d = (corrupt(truth.pixels[p], n) - truth.pixels[p]) / 255.0;
-            se += d * d;
-        }
-        double psnr = -10 * log10(se / (W * H * 3));
+        double psnr = stand_in_psnr(dir, r.held_out[i], n);
         CHECK_NEAR(r.psnr[i], psnr, 1e-5);
         sum += psnr;
-        gv_image_free(&truth);
     }
     CHECK_NEAR(r.psnr_mean, sum / r.n_held_out, 1e-5);
+    sum = 0;
+    for (int f = 0; f < FRAMES; f += n) sum += stand_in_psnr(dir, f, n);
+    CHECK(r.train_frames == r.n_train);
+    CHECK_NEAR(r.train_psnr, sum / r.n_train, 1e-5);
     gv_run_record_free(&r);
 }
 

@@ -162,7 +162,8 @@ int gv_run_file_name(char *out, size_t size, const char *scene, int n);
 
 /* ---- runs.c: runs/<scene>_n<NN>.json -----------------------------------------------------
  * What a run measured: PSNR and SSIM of the corrupted render of every held-out frame against
- * its ground truth (as the 3DGS evaluation computes them), and its timings. */
+ * its ground truth (as the 3DGS evaluation computes them), the mean over the training views,
+ * and its timings. */
 typedef struct {
     char scene[GV_SCENE_NAME_MAX];
     char split[8];
@@ -171,6 +172,8 @@ typedef struct {
     int *held_out;                   /* frame indices */
     double *psnr, *ssim;             /* per held-out frame */
     double psnr_mean, ssim_mean;     /* over the held-out frames */
+    int train_frames;                /* training views scored (0: not recorded) */
+    double train_psnr, train_ssim;   /* their mean: how well the sparse model fits its views */
     double train_seconds, render_seconds, seconds;
     int n_clips;
 } gv_run_record;

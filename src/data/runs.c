@@ -65,6 +65,12 @@ int gv_run_record_write(const char *path, const gv_run_record *r)
     cJSON_AddNumberToObject(baseline, "psnr", tidy(r->psnr_mean));
     cJSON_AddNumberToObject(baseline, "ssim", tidy(r->ssim_mean));
     cJSON_AddNumberToObject(baseline, "frames", r->n_held_out);
+    if (r->train_frames > 0) {
+        cJSON *train = cJSON_AddObjectToObject(root, "train");
+        cJSON_AddNumberToObject(train, "psnr", tidy(r->train_psnr));
+        cJSON_AddNumberToObject(train, "ssim", tidy(r->train_ssim));
+        cJSON_AddNumberToObject(train, "frames", r->train_frames);
+    }
     cJSON *frames = cJSON_AddArrayToObject(root, "frames");
     for (int i = 0; i < r->n_held_out; i++) {
         cJSON *o = cJSON_CreateObject();
@@ -112,6 +118,20 @@ static int read_frames(const cJSON *list, const char *path, gv_run_record *r)
     return 0;
 }
 
+/* The optional "train" summary (records written before it existed have none). */
+static int read_train(const cJSON *train, const char *path, gv_run_record *r)
+{
+    if (!train) return 0;
+    double psnr, ssim, frames;
+    if (!cJSON_IsObject(train) || number(train, "psnr", -PSNR_CAP, PSNR_CAP, &psnr) ||
+        number(train, "ssim", -1, 1, &ssim) || number(train, "frames", 1, 1e9, &frames) ||
+        frames != floor(frames))
+        return gv_fail("%s: \"train\" needs \"psnr\" in -100..100, \"ssim\" in -1..1 and an "
+                       "integer \"frames\" of at least 1", path);
+    r->train_psnr = psnr, r->train_ssim = ssim, r->train_frames = (int)frames;
+    return 0;
+}
+
 int gv_run_record_read(const char *path, gv_run_record *r)
 {
     memset(r, 0, sizeof *r);
@@ -142,6 +162,7 @@ int gv_run_record_read(const char *path, gv_run_record *r)
         r->seconds = v[4], r->train_seconds = v[5];
         double render;
         r->render_seconds = number(root, "render_seconds", 0, 1e12, &render) ? 0 : render;
+        rc = read_train(cJSON_GetObjectItemCaseSensitive(root, "train"), path, r);
         gv_run_record_summarise(r);
     }
     cJSON_Delete(root);
