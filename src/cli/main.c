@@ -1,6 +1,8 @@
 /* gaussvid: one program, one subcommand per stage of the pipeline. */
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cli/commands.h"
 #include "gaussvid/core.h"
@@ -9,11 +11,11 @@
 
 static const gv_subcommand commands[] = {
     {"scene", cmd_scene, "scenes: validate and describe (info), synthesise (synth)"},
-    {"splat", cmd_splat, "3D Gaussian Splatting models: export to .splat"},
+    {"splat", cmd_splat, "3D Gaussian Splatting: train, render, evaluate, export to .splat"},
     {"metrics", cmd_metrics, "PSNR and SSIM of two images, as the 3DGS evaluation computes them"},
     {"st", cmd_st, "safetensors files: check one and list its tensors and metadata (inspect)"},
     {"model", cmd_model, "restoration network: parameter counts and weight checks (inspect)"},
-    {"bench", cmd_bench, "benchmarks: tensor engine (nn)"},
+    {"bench", cmd_bench, "benchmarks: tensor engine, 3DGS trainer, network, restorer training"},
     {"dataset", cmd_dataset, "paired clip dataset: build (artifact simulation), stats, show"},
     {"vae", cmd_vae, "the restoration network's VAE: train on scene frames, evaluate reconstruction"},
     {"pretrain", cmd_pretrain, "pretrain the base first-last-frame video model on clean clips"},
@@ -35,8 +37,20 @@ static void print_usage(FILE *out)
     fprintf(out, "  %-10s %s\n", "version", "print the version");
 }
 
+/* OpenMP threads that wait by spinning make two-thread runs 5-25x slower as soon as another
+ * job shares the cores (docs/BENCHMARKS.md), so waiting threads sleep unless the user chose
+ * otherwise. libgomp reads its environment when it is loaded, before main, hence the one
+ * re-execution; if it fails the program simply runs with the default policy. */
+static void prefer_passive_wait(char **argv)
+{
+    if (getenv("OMP_WAIT_POLICY") || getenv("GOMP_SPINCOUNT")) return;
+    if (setenv("OMP_WAIT_POLICY", "passive", 1) != 0) return;
+    execv("/proc/self/exe", argv);
+}
+
 int main(int argc, char **argv)
 {
+    prefer_passive_wait(argv);
     if (argc < 2) {
         print_usage(stderr);
         return 2;

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# gaussvid itself: usage, help, version, unknown commands, and the OpenMP wait policy it
+# chooses when the user has not (threads sleep while they wait; see src/cli/main.c).
+. "$(dirname "$0")/lib/harness.sh"
+cli_setup main "$1"
+
+expect 2 "no command" -- "$G"
+grep -q "usage: gaussvid COMMAND" "$T/err"; check_rc "usage on stderr" $?
+expect 0 "help" -- "$G" help
+has "restore"
+expect 0 "version" -- "$G" version
+has "gaussvid 0.1.0"
+expect 2 "unknown command" -- "$G" nope
+one_line "unknown command 'nope'"
+
+# libgomp prints its settings with OMP_DISPLAY_ENV; the last print is the program's own run.
+expect 0 "wait policy unset" -- env -u OMP_WAIT_POLICY -u GOMP_SPINCOUNT OMP_DISPLAY_ENV=true "$G" version
+grep "OMP_WAIT_POLICY" "$T/err" | tail -n 1 | grep -q PASSIVE; check_rc "passive when unset" $?
+expect 0 "wait policy chosen" -- env OMP_WAIT_POLICY=active OMP_DISPLAY_ENV=true "$G" version
+grep "OMP_WAIT_POLICY" "$T/err" | tail -n 1 | grep -q ACTIVE; check_rc "the user's choice is kept" $?
+
+cli_finish
