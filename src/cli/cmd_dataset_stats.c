@@ -1,5 +1,6 @@
-/* gaussvid dataset stats DIR [--json]: clips per n and split, and the baseline quality of the
- * corrupted frames per n (mean over every held-out frame of every scene at that n). */
+/* gaussvid dataset stats DIR [--runs] [--json]: clips per n and split, and the baseline quality
+ * of the corrupted frames per n (mean over every held-out frame of every scene at that n);
+ * with --runs also one row per (scene, n) run, the sparse-3DGS baseline table. */
 #include <cjson/cJSON.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -7,6 +8,66 @@
 #include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/dataset.h"
+
+/* Calls fn on the record of every run of the manifest, in manifest order (scene, n). */
+static int for_each_run(const char *dir, void (*fn)(const gv_run_record *, void *), void *arg)
+{
+    gv_manifest m;
+    int found, rc;
+    if ((rc = gv_manifest_read(dir, &m, &found)) != 0) return rc;
+    if (!found) return gv_fail("%s: no manifest.json (not a dataset folder?)", dir);
+    for (int i = 0; i < m.n_runs && rc == 0; i++) {
+        char file[GV_SCENE_NAME_MAX + 32], path[4096];
+        gv_run_record rec;
+        rc = gv_run_file_name(file, sizeof file, m.runs[i].scene, m.runs[i].n) ||
+             gv_path_join(path, sizeof path, dir, file) || gv_run_record_read(path, &rec);
+        if (rc == 0) {
+            fn(&rec, arg);
+            gv_run_record_free(&rec);
+        }
+    }
+    gv_manifest_free(&m);
+    return rc ? -1 : 0;
+}
+
+static void print_run(const gv_run_record *r, void *unused)
+{
+    (void)unused;
+    char train[32] = "-";
+    if (r->train_frames > 0) snprintf(train, sizeof train, "%.2f / %.4f", r->train_psnr, r->train_ssim);
+    printf("| %s | %s | %d | %d | %.2f / %.4f | %s | %d | %.0f |\n", r->scene, r->split, r->n,
+           r->n_train, r->psnr_mean, r->ssim_mean, train, r->n_clips, r->seconds);
+}
+
+static void add_run_json(const gv_run_record *r, void *list)
+{
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "scene", r->scene);
+    cJSON_AddStringToObject(o, "split", r->split);
+    cJSON_AddNumberToObject(o, "n", r->n);
+    cJSON_AddNumberToObject(o, "train_views", r->n_train);
+    cJSON *b = cJSON_AddObjectToObject(o, "held_out");
+    cJSON_AddNumberToObject(b, "psnr", r->psnr_mean);
+    cJSON_AddNumberToObject(b, "ssim", r->ssim_mean);
+    cJSON_AddNumberToObject(b, "frames", r->n_held_out);
+    if (r->train_frames > 0) {
+        cJSON *t = cJSON_AddObjectToObject(o, "train");
+        cJSON_AddNumberToObject(t, "psnr", r->train_psnr);
+        cJSON_AddNumberToObject(t, "ssim", r->train_ssim);
+        cJSON_AddNumberToObject(t, "frames", r->train_frames);
+    }
+    cJSON_AddNumberToObject(o, "clips", r->n_clips);
+    cJSON_AddNumberToObject(o, "seconds", r->seconds);
+    cJSON_AddItemToArray((cJSON *)list, o);
+}
+
+/* --runs in text: the runs as a Markdown table. */
+static int print_runs(const char *dir)
+{
+    printf("\n| scene | split | n | training views | held-out PSNR / SSIM | training views PSNR / SSIM | clips | seconds |\n"
+           "|---|---|---:|---:|---|---|---:|---:|\n");
+    return for_each_run(dir, print_run, NULL);
+}
 
 /* The totals over every n (frame-weighted means, like each row's). */
 static gv_dataset_stats_row total_row(const gv_dataset_stats *s)
@@ -39,7 +100,7 @@ static cJSON *row_json(const gv_dataset_stats_row *r, int with_n)
     return o;
 }
 
-static int print_json(const char *dir, const gv_dataset_stats *s)
+static int print_json(const char *dir, const gv_dataset_stats *s, int runs)
 {
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "dataset", dir);
@@ -57,6 +118,10 @@ static int print_json(const char *dir, const gv_dataset_stats *s)
     for (int i = 0; i < s->n_rows; i++) cJSON_AddItemToArray(rows, row_json(&s->rows[i], 1));
     gv_dataset_stats_row t = total_row(s);
     cJSON_AddItemToObject(root, "all", row_json(&t, 0));
+    if (runs && for_each_run(dir, add_run_json, cJSON_AddArrayToObject(root, "runs")) != 0) {
+        cJSON_Delete(root);
+        return -1;
+    }
     char *text = cJSON_Print(root);
     cJSON_Delete(root);
     if (!text) return gv_fail("out of memory");
@@ -93,8 +158,10 @@ static void print_text(const char *dir, const gv_dataset_stats *s)
 
 int cmd_dataset_stats(int argc, char **argv)
 {
-    int json = 0;
+    int json = 0, runs = 0;
     const gv_flag flags[] = {
+        {"runs", GV_FLAG_BOOL, &runs, NULL,
+         "also one row per (scene, n) run: held-out and training-view PSNR/SSIM, seconds", 0},
         {"json", GV_FLAG_BOOL, &json, NULL, "print JSON instead of a table", 0},
     };
     const gv_command_spec spec = {
@@ -112,8 +179,11 @@ int cmd_dataset_stats(int argc, char **argv)
     }
     int rc = gv_dataset_stats_read(positional[0], s);
     if (rc == 0) {
-        if (json) rc = print_json(positional[0], s);
-        else print_text(positional[0], s);
+        if (json) rc = print_json(positional[0], s, runs);
+        else {
+            print_text(positional[0], s);
+            if (runs) rc = print_runs(positional[0]);
+        }
     }
     free(s);
     return rc == 0 ? 0 : gv_report_failure();

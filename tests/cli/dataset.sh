@@ -95,6 +95,15 @@ if grep -qE '^ +6 +2 +2 +2 +22 ' "$T/out"; then ok; else bad "stats row for n=6:
 expect 0 "stats json" -- "$G" dataset stats "$D" --json
 has '"per_n"'
 has '"clips_eval":	2'
+# --runs: one Markdown row per run, and the same in the JSON (with the training views' scores).
+expect 0 "stats runs" -- "$G" dataset stats "$D" --runs
+has "| scene | split | n | training views |"
+if grep -qE '^\| room-a \| train \| 6 \| 3 \| [0-9.]+ / [0-9.]+ \| [0-9.]+ / [0-9.]+ \| 2 \|' "$T/out"; then ok; else bad "runs row of room-a: $(cat "$T/out")"; fi
+has "| room-b | eval | 6 | 3 |"
+expect 0 "stats runs json" -- "$G" dataset stats "$D" --runs --json
+has '"runs"'
+has '"train_views":	3'
+if [ "$(grep -c '"train":' "$T/out")" -eq 2 ]; then ok; else bad "runs JSON lacks train scores"; fi
 expect 1 "stats of a non-dataset" -- "$G" dataset stats "$A"
 one_line "no manifest.json"
 echo '{"format": "gaussvid.clips", "format_version": 1}' >"$T/manifest.json"
