@@ -71,6 +71,8 @@ int gv_atomic_open(gv_atomic_file *af, const char *path);
 /* Flushes, closes and renames into place; on any write error removes the temporary. */
 int gv_atomic_commit(gv_atomic_file *af);
 void gv_atomic_abort(gv_atomic_file *af);
+/* Writes text and a final newline to path atomically (JSON documents, manifests). */
+int gv_write_text_atomic(const char *path, const char *text);
 
 /* ---- Command-line flags -------------------------------------------------------------
  * Every subcommand declares its flags in a table; the parser handles --help, --quiet and

@@ -97,6 +97,15 @@ int gv_atomic_commit(gv_atomic_file *af)
     return 0;
 }
 
+int gv_write_text_atomic(const char *path, const char *text)
+{
+    gv_atomic_file af;
+    if (gv_atomic_open(&af, path) != 0) return -1;
+    fputs(text, af.f);
+    fputc('\n', af.f);
+    return gv_atomic_commit(&af);
+}
+
 void gv_atomic_abort(gv_atomic_file *af)
 {
     if (af->f) fclose(af->f);

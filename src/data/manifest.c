@@ -153,13 +153,7 @@ int gv_manifest_write(const char *dir, const gv_manifest *m)
     char *text = root ? cJSON_Print(root) : NULL;
     cJSON_Delete(root);
     if (!text) return gv_fail("%s: out of memory", path);
-    gv_atomic_file af;
-    int rc = gv_atomic_open(&af, path);
-    if (rc == 0) {
-        fputs(text, af.f);
-        fputc('\n', af.f);
-        rc = gv_atomic_commit(&af);
-    }
+    int rc = gv_write_text_atomic(path, text);
     free(text);
     return rc;
 }

@@ -82,13 +82,7 @@ int gv_run_record_write(const char *path, const gv_run_record *r)
     char *text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
     if (!text) return gv_fail("%s: out of memory", path);
-    gv_atomic_file af;
-    int rc = gv_atomic_open(&af, path);
-    if (rc == 0) {
-        fputs(text, af.f);
-        fputc('\n', af.f);
-        rc = gv_atomic_commit(&af);
-    }
+    int rc = gv_write_text_atomic(path, text);
     free(text);
     return rc;
 }

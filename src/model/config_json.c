@@ -416,12 +416,7 @@ int gv_model_config_write(const gv_model_config *c, const char *path)
 {
     char *text = gv_model_config_to_json(c);
     if (!text) return gv_fail("%s: out of memory while writing the model config", path);
-    gv_atomic_file af;
-    int rc = gv_atomic_open(&af, path);
-    if (rc == 0) {
-        fprintf(af.f, "%s\n", text);
-        rc = gv_atomic_commit(&af);
-    }
+    int rc = gv_write_text_atomic(path, text);
     free(text);
     return rc;
 }

@@ -145,12 +145,7 @@ int gv_eval_write_json(const gv_eval_table *t, const char *path, const char *con
     char *text = ok ? cJSON_Print(root) : NULL;
     cJSON_Delete(root);
     if (!text) return gv_fail("%s: out of memory", path);
-    gv_atomic_file af;
-    int rc = gv_atomic_open(&af, path);
-    if (rc == 0) {
-        fprintf(af.f, "%s\n", text);
-        rc = gv_atomic_commit(&af);
-    }
+    int rc = gv_write_text_atomic(path, text);
     free(text);
     return rc;
 }
