@@ -133,12 +133,12 @@ static void test_training(void)
 
     /* interrupted after step 20, resumed to 30: the same weights */
     options(&o, part, 30);
-    o.stop_at = 20;
+    o.stop_after = 20;
     CHECK(gv_vae_train(&c, &f, NULL, &o) == 0);
     CHECK(gv_vae_init(&v, &c, 0, 9) == 0);
     CHECK(gv_vae_load(&v, part, 0) == 0 && !v.has_stats); /* no statistics before the end */
     gv_vae_free(&v);
-    o.stop_at = 0;
+    o.stop_after = 0;
     o.resume = 1;
     CHECK(gv_vae_train(&c, &f, NULL, &o) == 0);
     CHECK(same_weights(full, part, &c));

@@ -39,7 +39,7 @@ void gv_vae_clip_extract(const gv_vae_scene *s, int t0, int stride, int T, int x
  * pixel values (the Stable Diffusion / Wan convention, where the weight is about 1e-6). */
 typedef struct {
     long steps;                  /* optimiser steps in total (resume continues to it) */
-    long stop_at;                /* end this run after that step, without statistics (0: at steps) */
+    long stop_after;                /* end this run after that step, without statistics (0: at steps) */
     int batch;                   /* clips per step */
     int frames;                  /* frames per clip, 1 + k r */
     int crop_h, crop_w;          /* crop, multiples of the spatial factor */

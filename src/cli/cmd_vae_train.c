@@ -26,7 +26,7 @@ int cmd_vae_train(int argc, char **argv)
     gv_vae_train_defaults(&o);
     const char *config = "small", *crop = "64x64", *out = NULL, *log = NULL;
     int steps = (int)o.steps, seed = 0, downscale = 1, ckpt = (int)o.checkpoint_every, eval_every = 0;
-    int warmup = (int)o.warmup, stop_at = 0;
+    int warmup = (int)o.warmup, stop_after = 0;
     const gv_flag flags[] = {
         {"config", GV_FLAG_STRING, &config, "PRESET|FILE", "model config whose VAE is trained (default small)", 0},
         {"out", GV_FLAG_STRING, &out, "FILE", "the weights (.safetensors); the checkpoint is FILE.ckpt", 1},
@@ -44,7 +44,7 @@ int cmd_vae_train(int argc, char **argv)
         {"kl-weight", GV_FLAG_DOUBLE, &o.kl_weight, "W", "weight of the KL term (default 1e-6; 0: no sampling)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "random seed (default 0)", 0},
         {"resume", GV_FLAG_BOOL, &o.resume, NULL, "continue from FILE.ckpt when it exists", 0},
-        {"stop-at", GV_FLAG_INT, &stop_at, "N", "end this run after step N (continue later with --resume)", 0},
+        {"stop-after", GV_FLAG_INT, &stop_after, "N", "end this run after step N (continue later with --resume)", 0},
         {"checkpoint-every", GV_FLAG_INT, &ckpt, "N", "steps between checkpoints (default 100)", 0},
         {"eval-every", GV_FLAG_INT, &eval_every, "N", "steps between held-out evaluations (needs --eval-scenes)", 0},
         {"eval-clips", GV_FLAG_INT, &o.eval_clips, "N", "held-out clips per scene and evaluation (default 4)", 0},
@@ -71,7 +71,7 @@ int cmd_vae_train(int argc, char **argv)
         fprintf(stderr, "gaussvid vae train: --scenes DIR... is required\n");
         return 2;
     }
-    if (parse_size(crop, &o.crop_h, &o.crop_w) || steps < 1 || seed < 0 || ckpt < 1 || eval_every < 0 || warmup < 0 || stop_at < 0) {
+    if (parse_size(crop, &o.crop_h, &o.crop_w) || steps < 1 || seed < 0 || ckpt < 1 || eval_every < 0 || warmup < 0 || stop_after < 0) {
         fprintf(stderr, "gaussvid vae train: --crop needs HxW; --steps and --checkpoint-every positive; --seed, --warmup, --eval-every non-negative\n");
         return 2;
     }
@@ -84,7 +84,7 @@ int cmd_vae_train(int argc, char **argv)
     o.checkpoint_every = ckpt;
     o.eval_every = eval_every;
     o.warmup = warmup;
-    o.stop_at = stop_at;
+    o.stop_after = stop_after;
     o.out = out;
     o.log_path = log;
     o.config_spec = config;
@@ -105,9 +105,9 @@ int cmd_vae_train(int argc, char **argv)
     gv_vae_frames_free(&train);
     gv_vae_frames_free(&eval);
     if (rc) return gv_report_failure();
-    if (o.stop_at > 0 && o.stop_at < o.steps)
+    if (o.stop_after > 0 && o.stop_after < o.steps)
         printf("%s: %s VAE trained to step %ld of %ld (%.1f s this run); continue with --resume\n", out, c.name,
-               o.stop_at, o.steps, gv_now() - start);
+               o.stop_after, o.steps, gv_now() - start);
     else
         printf("%s: %s VAE trained for %ld steps (%.1f s this run), latent statistics stored\n", out, c.name, o.steps,
                gv_now() - start);

@@ -178,7 +178,7 @@ int gv_vae_train(const gv_model_config *c, const gv_vae_frames *train, const gv_
     gv_graph g;
     gv_graph_init(&g, (size_t)256 << 20);
     gv_progress bar;
-    long end = o->stop_at > 0 && o->stop_at < o->steps ? o->stop_at : o->steps;
+    long end = o->stop_after > 0 && o->stop_after < o->steps ? o->stop_after : o->steps;
     gv_progress_start(&bar, "vae train", end - start);
     double avg_loss = 0, avg_mse = 0, t_start = gv_now() - seconds;
     for (long step = start; step < end && rc == 0; step++) {

@@ -68,7 +68,7 @@ check "the log has a header and one line per step" $?
 check "the weights carry the latent statistics" $?
 "$GV" model inspect --config tiny --parts vae --weights "$DIR/vae.safetensors" >/dev/null 2>&1
 check "model inspect accepts the weights as the tiny VAE" $?
-"$GV" vae train "${args[@]}" --steps 6 --stop-at 4 --out "$DIR/part.safetensors" >/dev/null 2>&1 &&
+"$GV" vae train "${args[@]}" --steps 6 --stop-after 4 --out "$DIR/part.safetensors" >/dev/null 2>&1 &&
     "$GV" vae train "${args[@]}" --steps 6 --resume --out "$DIR/part.safetensors" >/dev/null 2>&1
 check "stop at step 4, then resume to 6" $?
 cmp -s "$DIR/vae.safetensors" "$DIR/part.safetensors"
