@@ -2,9 +2,10 @@
  * and the velocity target of both objectives, the VACE context each allows, the losses of one
  * sample against an independent computation from the network's own forward pass, how the
  * weights w_cur, w_t, w_lat and the batch scale enter the gradient, and which tensors receive
- * gradients in fine-tuning. */
+ * gradients in fine-tuning; the `skip` output parameterisation in training and restoration. */
 #include "check.h"
 #include "model_testutil.h"
+#include "gaussvid/restore.h"
 #include "gaussvid/train.h"
 
 /* A clip's latents for the tiny preset (32 x 32 pixels: latent 4 x 2 x 4 x 4), random values,
@@ -244,11 +245,78 @@ static void test_per_frame_sample(void)
     gv_dit_free(&m);
 }
 
+/* The analytic skip (train.h): both forms by hand, then with the tiny model: fine-tuning's
+ * L_FM is the squared error of x_t - t F (F the network's raw output), pretraining ignores
+ * the skip, and the restorer's velocity gives eps - v = x - sigma F. */
+static void test_skip_output(void)
+{
+    float zh[3] = {2, -1, 0.5f}, eps[3] = {0.5f, 1, -2}, x[3], s1[3], s2[3];
+    gv_flow_noisy(zh, eps, 0.25f, 3, x);
+    gv_flow_skip_from_noise(zh, eps, 0.25f, 3, s1);
+    gv_flow_skip_from_x(zh, x, 0.25, 3, s2);
+    CHECK_NEAR(s1[0], 0.75 * (0.5 - 2), 1e-7); /* -1.125 */
+    CHECK_NEAR(s2[0], 3.0 * (1.625 - 2), 1e-6);
+    CHECK_NEAR(s1[1], 1.5, 1e-7);
+    CHECK_NEAR(s2[2], s1[2], 1e-6);
+    gv_flow_skip_from_noise(zh, eps, 0.0f, 3, s1); /* t = 0: eps - z_hat */
+    CHECK(s1[0] == -1.5f && s1[1] == 2.0f && s1[2] == -2.5f);
+
+    gv_dit m;
+    CHECK(mt_model(&m, "skip", 8) == 0);
+    CHECK(m.cfg.variant.skip == 1);
+    mt_randomize(&m, MT_ALL, 9);
+    gv_clip_latents l;
+    make_latents(&l, &m.cfg, 1, 21);
+    int64_t n = gv_clip_latents_z_count(&l);
+    float *e = malloc((size_t)n * sizeof *e), *xt = malloc((size_t)n * sizeof *xt), *v = malloc((size_t)n * sizeof *v);
+    gv_fill_normal(e, n, 77, 0, 0.0f, 1.0f);
+    gv_graph g;
+    gv_graph_init(&g, 0);
+    const float t = 0.3f;
+    gv_sample_draw d = {t, 1.0, 1.0, 0.1};
+    gv_sample_losses fine, pre, plain;
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, e, 1.0, 0, &fine) == 0);
+    gv_objective_inputs(&l, GV_OBJECTIVE_FINETUNE, t, e, xt, v);
+    float *F = independent_velocity(&m, &l, t, xt, GV_OBJECTIVE_FINETUNE);
+    double want_fm = 0, want_lat = 0;
+    for (int64_t i = 0; i < n; i++) {
+        double est = (double)xt[i] - t * F[i] - l.z_clean[i];
+        double vel = (1.0 - t) * ((double)e[i] - l.z_corrupt[i]) + t * F[i];
+        want_fm += est * est;
+        want_lat += fabs((double)xt[i] - t * vel - l.z_clean[i]);
+    }
+    want_fm /= n, want_lat /= n;
+    CHECK_NEAR(fine.fm, want_fm, 1e-5 * want_fm);
+    CHECK_NEAR(fine.latent, want_lat, 1e-5 * want_lat);
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_PRETRAIN, &d, e, 1.0, 0, &pre) == 0);
+    m.cfg.variant.skip = 0;
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_PRETRAIN, &d, e, 1.0, 0, &plain) == 0);
+    CHECK(pre.fm == plain.fm && pre.latent == plain.latent);
+    m.cfg.variant.skip = 1;
+
+    gv_restore_net net;
+    CHECK(gv_restore_net_init(&net, &m, &l, 1) == 0);
+    CHECK(gv_restore_net_velocity(&net, xt, t, v) == 0);
+    double worst = 0;
+    for (int64_t i = 0; i < n; i++) {
+        double diff = fabs(((double)e[i] - v[i]) - ((double)xt[i] - t * F[i]));
+        if (diff > worst) worst = diff;
+    }
+    printf("skip: L_FM %.6f (independent %.6f), restore |(eps - v) - (x - t F)| max %.2e\n", fine.fm, want_fm, worst);
+    CHECK(worst < 1e-5);
+    gv_restore_net_free(&net);
+    free(F), free(e), free(xt), free(v);
+    gv_graph_free(&g);
+    gv_clip_latents_free(&l);
+    gv_dit_free(&m);
+}
+
 int main(void)
 {
     test_inputs_and_context();
     test_sample_losses();
     test_gradient_weights();
     test_per_frame_sample();
+    test_skip_output();
     return check_summary();
 }

@@ -23,6 +23,13 @@ double gv_flow_shift(double sigma, double shift);
 void gv_flow_noisy(const float *start, const float *eps, float t, int64_t n, float *x_t);
 /* The velocity target v = eps - z0 (z0* in fine-tuning: paper eq. 7). */
 void gv_flow_target(const float *z0, const float *eps, int64_t n, float *v);
+/* The analytic skip of the `skip` output (docs/TRAINING.md "Output parameterisation"): the
+ * fine-tuned velocity is v = S + t F with F the network's output and S = (1 - t)/t (x_t - z_hat),
+ * which on the path x_t = (1 - t) z_hat + t eps equals (1 - t)(eps - z_hat). So eps - v =
+ * x_t - t F: the clean estimate of the base's own parameterisation. Training knows eps and
+ * takes the second form (defined at t = 0); the samplers know x and take the first (t > 0). */
+void gv_flow_skip_from_noise(const float *z_hat, const float *eps, float t, int64_t n, float *s);
+void gv_flow_skip_from_x(const float *z_hat, const float *x, double t, int64_t n, float *s);
 
 /* The pretraining timesteps of the reference (5.5): a grid sigma_k = shift(1 - k / 1000),
  * k = 0..999, drawn uniformly, each with the loss weight w_k = (y_k - min y) 1000 / sum(y - min y),

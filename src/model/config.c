@@ -247,6 +247,10 @@ static int set_one(gv_model_config *c, const char *key, const char *value, const
         if (strcmp(value, "true") && strcmp(value, "false"))
             return gv_config_bad(src, "variant.per_frame", "\"%s\" is not true or false", value);
         c->variant.per_frame = !strcmp(value, "true");
+    } else if (!strcmp(key, "skip")) {
+        if (strcmp(value, "true") && strcmp(value, "false"))
+            return gv_config_bad(src, "variant.skip", "\"%s\" is not true or false", value);
+        c->variant.skip = !strcmp(value, "true");
     } else if (!strcmp(key, "lora")) {
         char *end;
         long rank = strtol(value, &end, 10);
@@ -255,7 +259,7 @@ static int set_one(gv_model_config *c, const char *key, const char *value, const
         else if (rank > 0) c->lora.alpha = (double)rank;
         c->lora.rank = (int)rank;
     } else {
-        return gv_config_bad(src, key, "unknown variant key (camera, anchors, per_frame, lora)");
+        return gv_config_bad(src, key, "unknown variant key (camera, anchors, per_frame, skip, lora)");
     }
     return 0;
 }
@@ -276,10 +280,12 @@ int gv_model_config_set_variant(gv_model_config *c, const char *spec, const char
         } else if (!strcmp(item, "per-frame") || !strcmp(item, "per_frame")) {
             rc = set_one(c, "per_frame", "true", src);
             if (!rc) c->variant.anchors = GV_ANCHORS_NONE;
+        } else if (!strcmp(item, "skip")) {
+            rc = set_one(c, "skip", "true", src);
         } else if (gv_camera_variant_from_name(item) >= 0) {
             rc = set_one(c, "camera", item, src);
         } else {
-            rc = gv_fail("%s: \"%s\" is not a variant (camera name, per-frame, or key=value)", src, item);
+            rc = gv_fail("%s: \"%s\" is not a variant (camera name, per-frame, skip, or key=value)", src, item);
         }
         if (rc) return -1;
     }
@@ -325,7 +331,7 @@ int gv_model_config_equal(const gv_model_config *a, const gv_model_config *b)
     for (int i = 0; i < l->n_targets; i++)
         if (strcmp(l->targets[i], r->targets[i])) return 0;
     return a->variant.camera == b->variant.camera && a->variant.anchors == b->variant.anchors &&
-           a->variant.per_frame == b->variant.per_frame;
+           a->variant.per_frame == b->variant.per_frame && a->variant.skip == b->variant.skip;
 }
 
 void gv_model_camera_kernel(const gv_model_config *c, int kernel[3])

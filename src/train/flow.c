@@ -21,6 +21,17 @@ void gv_flow_target(const float *z0, const float *eps, int64_t n, float *v)
     for (int64_t i = 0; i < n; i++) v[i] = eps[i] - z0[i];
 }
 
+void gv_flow_skip_from_noise(const float *z_hat, const float *eps, float t, int64_t n, float *s)
+{
+    for (int64_t i = 0; i < n; i++) s[i] = (1.0f - t) * (eps[i] - z_hat[i]);
+}
+
+void gv_flow_skip_from_x(const float *z_hat, const float *x, double t, int64_t n, float *s)
+{
+    float c = (float)((1.0 - t) / t);
+    for (int64_t i = 0; i < n; i++) s[i] = c * (x[i] - z_hat[i]);
+}
+
 /* Reference 5.5: sigma from linspace(1, 0, 1001)[:-1], shifted; the weight is a bell around
  * timestep 500, shifted down to 0 at its minimum and normalised to mean 1 over the grid. */
 void gv_pretrain_schedule_init(gv_pretrain_schedule *s, double shift)

@@ -6,6 +6,7 @@
 
 #include "gaussvid/core.h"
 #include "gaussvid/restore.h"
+#include "gaussvid/train.h"
 
 uint64_t gv_restore_clip_seed(uint64_t seed, const char *clip_name)
 {
@@ -78,7 +79,12 @@ int gv_restore_net_velocity(void *ctx, const float *x, double sigma, float *v)
     if (y->numel != gv_clip_latents_z_count(l))
         return gv_fail("restore: the network returned %lld values for a latent of %lld", (long long)y->numel,
                        (long long)gv_clip_latents_z_count(l));
-    memcpy(v, y->data, (size_t)y->numel * sizeof *v);
+    if (r->model->cfg.variant.skip) { /* v = S + sigma F (train.h), as in fine-tuning */
+        gv_flow_skip_from_x(l->z_corrupt, x, sigma, y->numel, v);
+        for (int64_t i = 0; i < y->numel; i++) v[i] += (float)sigma * y->data[i];
+    } else {
+        memcpy(v, y->data, (size_t)y->numel * sizeof *v);
+    }
     r->evaluations++;
     return 0;
 }

@@ -77,6 +77,11 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
         in.latent = x_t;
         in.timestep = timestep;
         v = gv_dit_forward(m, g, &in);
+        if (v && obj == GV_OBJECTIVE_FINETUNE && m->cfg.variant.skip) { /* v = S + t F (train.h) */
+            gv_tensor *skip = gv_tensor_new(g, 5, shape);
+            if (skip) gv_flow_skip_from_noise(l->z_corrupt, eps, d->t, skip->numel, skip->data);
+            v = skip ? gv_add(g, skip, gv_scale(g, v, d->t)) : NULL;
+        }
         fm = gv_l2_loss(g, v, target, NULL); /* paper eq. 7 as a mean over the latent */
         loss = gv_scale(g, fm, (float)(scale * d->w_cur * d->w_t));
         if (d->w_lat > 0) { /* paper eq. 8: L1(x_t - t v, z0*) */
