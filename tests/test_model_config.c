@@ -106,6 +106,8 @@ static void test_equal_notices_changes(void)
     CHECK(!gv_model_config_equal(&a, &b));
     b = a, b.variant.anchors = GV_ANCHORS_FIRST;
     CHECK(!gv_model_config_equal(&a, &b));
+    b = a, b.variant.skip = 1;
+    CHECK(!gv_model_config_equal(&a, &b));
     b = a;
     CHECK(gv_model_config_equal(&a, &b));
 }
@@ -132,6 +134,7 @@ static void test_minimal_file(void)
     CHECK(c.lora.rank == 32 && c.lora.alpha == 32 && c.lora.n_targets == 6 && c.lora.blocks && c.lora.vace_blocks);
     CHECK(!strcmp(c.lora.targets[4], "ffn.0"));
     CHECK(c.variant.camera == GV_CAMERA_DECOMPOSED && c.variant.anchors == GV_ANCHORS_BOTH && !c.variant.per_frame);
+    CHECK(!c.variant.skip);
 }
 
 /* ---- malformed files ------------------------------------------------------------------ */
@@ -303,7 +306,14 @@ static void test_variants(void)
     CHECK(gv_model_config_set_variant(&c, "lora=8", NULL) == 0 && c.lora.rank == 8 && c.lora.alpha == 8);
     CHECK(gv_model_config_set_variant(&c, "lora=0", NULL) == 0 && c.lora.rank == 0);
     CHECK(gv_model_config_set_variant(&c, "lora=4", NULL) == 0 && c.lora.rank == 4 && c.lora.alpha == 4);
+    CHECK(gv_model_config_set_variant(&c, "skip", NULL) == 0 && c.variant.skip);
+    char *text = gv_model_config_to_json(&c); /* the flag survives the JSON round trip */
+    gv_model_config back;
+    CHECK(text && gv_model_config_parse(&back, text, "skip.json") == 0 && back.variant.skip && gv_model_config_equal(&c, &back));
+    free(text);
+    CHECK(gv_model_config_set_variant(&c, "skip=false", NULL) == 0 && !c.variant.skip);
     gv_model_config_preset(&c, "small");
+    CHECK_FAILS_WITH(gv_model_config_set_variant(&c, "skip=yes", "--variant"), "variant.skip: \"yes\" is not true or false");
     CHECK_FAILS_WITH(gv_model_config_set_variant(&c, "camera=side", "--variant"), "--variant: variant.camera: \"side\"");
     CHECK_FAILS_WITH(gv_model_config_set_variant(&c, "per_frame=true", "--variant"), "variant.anchors: a per-frame restorer");
     CHECK_FAILS_WITH(gv_model_config_set_variant(&c, "speed=2", "--variant"), "speed: unknown variant key");
