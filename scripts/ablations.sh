@@ -1,0 +1,123 @@
+#!/usr/bin/env bash
+# The paper's ablation tables (section 4.4) at small scale, on the work folder of
+# scripts/train_small.sh: every variant is fine-tuned from the same base, on the same clips,
+# for the same number of steps, then evaluated on the same held-out clips. A variant whose
+# evaluation exists is skipped, and training resumes mid-way, so the script can be stopped and
+# run again.
+#
+# Usage: scripts/ablations.sh [WORK_DIR]            (default: runs/small)
+#   WORK_DIR must hold what train_small.sh makes: data/ (both splits), base.safetensors.
+# Environment:
+#   GAUSSVID   the program (default build/gaussvid)
+#   STEPS      fine-tuning steps of every variant (default 1500; QUICK=1: 3)
+#   BATCH      clips per step (default 2; QUICK=1: 1)
+#   METHOD     the method's own variant flags, given to every run (default: none, the
+#              config's variant; e.g. "skip")
+#   ONLY       run only these tables: camera strategy anchors adaptation (default all)
+#
+# Outputs in WORK_DIR/ablations: <variant>.safetensors, <variant>.md and .json (gaussvid eval),
+# times.tsv (training seconds per variant) and ablations.md, the tables. Rows:
+#   camera      none / early fusion / monolithic dual stream / ours (decomposed)
+#   strategy    shuffle / + curriculum / + progressive loss / both (ours)
+#   anchors     none / first / both (ours)
+#   adaptation  zero-shot base / vanilla LoRA (no camera, shuffle) / per-frame restorer / ours
+set -euo pipefail
+export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} # threads sleep while they wait (docs/BENCHMARKS.md)
+
+G=${GAUSSVID:-build/gaussvid}
+W=${1:-runs/small}
+if [ "${QUICK:-0}" = 1 ]; then STEPS=${STEPS:-3} BATCH=${BATCH:-1}; fi
+STEPS=${STEPS:-1500}
+BATCH=${BATCH:-2}
+METHOD=${METHOD:-}
+ONLY=${ONLY:-camera strategy anchors adaptation}
+A="$W/ablations"
+
+[ -x "$G" ] || { echo "ablations.sh: $G: not built (run make)" >&2; exit 1; }
+for f in "$W/data/manifest.json" "$W/base.safetensors"; do
+  [ -e "$f" ] || { echo "ablations.sh: $f: missing (run scripts/train_small.sh $W first)" >&2; exit 1; }
+done
+mkdir -p "$A"
+
+# variant NAME VARIANT_SPEC TRAIN_FLAGS...: fine-tunes NAME from the base and evaluates it.
+variant() {
+  local name=$1 spec=$2
+  shift 2
+  local full=$METHOD
+  [ -n "$spec" ] && full=${full:+$full,}$spec
+  if [ -e "$A/$name.json" ]; then
+    echo "== $name: evaluated, skipped"
+    return
+  fi
+  echo "== $name (variant: ${full:-as configured}; flags: ${*:-none})"
+  if [ ! -e "$A/$name.safetensors" ]; then
+    local start=$SECONDS
+    "$G" train --clips "$W/data" --base "$W/base.safetensors" ${full:+--variant "$full"} "$@" \
+      --steps "$STEPS" --batch "$BATCH" --resume --log "$A/$name.tsv" --out "$A/$name.safetensors"
+    printf '%s\t%d\n' "$name" $((SECONDS - start)) >> "$A/times.tsv"
+  fi
+  evaluate "$name" "$A/$name.safetensors"
+}
+
+# evaluate NAME CHECKPOINT: gaussvid eval on the held-out split into NAME.md and NAME.json.
+evaluate() {
+  "$G" eval --ckpt "$2" --clips "$W/data" --split eval --json "$A/$1.json.tmp" > "$A/$1.md"
+  mv "$A/$1.json.tmp" "$A/$1.json"
+}
+
+# row LABEL NAME: one table row from NAME.md's mean line and its worst per-n change.
+row() {
+  awk -v label="$1" -F'|' '
+    $2 ~ /\*\*mean\*\*/ { b = $4; bs = $5; r = $6; rs = $7; d = $8; next }
+    $2 ~ /^ *[0-9]+ *$/ { c = $8 + 0; if (worst == "" || c < worst) worst = c }
+    END { gsub(/ /, "", r); gsub(/ /, "", rs); gsub(/ /, "", d); gsub(/ /, "", b); gsub(/ /, "", bs)
+          printf "| %s | %s / %s | %s / %s | %s | %+.2f |\n", label, b, bs, r, rs, d, worst }' "$A/$2.md"
+}
+
+table() {
+  echo
+  echo "### $1"
+  echo
+  echo "| variant | baseline PSNR / SSIM | restored PSNR / SSIM | PSNR change | worst n |"
+  echo "|---|---|---|---|---|"
+}
+
+wants() { [[ " $ONLY " == *" $1 "* ]]; }
+
+variant ours ""
+wants camera && {
+  variant camera-none camera=none
+  variant camera-early camera=early
+  variant camera-monolithic camera=monolithic
+}
+wants strategy && {
+  variant shuffle "" --no-curriculum --no-progressive-loss
+  variant curriculum "" --no-progressive-loss
+  variant progressive "" --no-curriculum
+}
+wants anchors && {
+  variant anchors-none anchors=none
+  variant anchors-first anchors=first
+}
+wants adaptation && {
+  if [ -e "$A/zero-shot.json" ]; then echo "== zero-shot: evaluated, skipped"
+  else echo "== zero-shot (the base, no fine-tuning)"; evaluate zero-shot "$W/base.safetensors"; fi
+  variant vanilla-lora camera=none --no-curriculum --no-progressive-loss
+  variant per-frame per-frame
+}
+
+{
+  echo "# Ablations ($STEPS fine-tuning steps each, batch $BATCH, method variant: ${METHOD:-as configured})"
+  echo
+  echo "Held-out clips of $W/data (split eval); PSNR change = restored - baseline (dB), mean"
+  echo "over frames; worst n = the lowest per-interval change. From scripts/ablations.sh."
+  wants camera && { table "Camera injection"; row "none" camera-none; row "early fusion" camera-early
+                    row "monolithic dual stream" camera-monolithic; row "decomposed (ours)" ours; }
+  wants strategy && { table "Training strategy"; row "shuffle" shuffle; row "+ curriculum" curriculum
+                      row "+ progressive loss" progressive; row "both (ours)" ours; }
+  wants anchors && { table "Anchors"; row "none" anchors-none; row "first" anchors-first; row "both (ours)" ours; }
+  wants adaptation && { table "Adaptation"; row "zero-shot base" zero-shot; row "vanilla LoRA" vanilla-lora
+                        row "per-frame restorer" per-frame; row "ours" ours; }
+} > "$A/ablations.md.tmp"
+mv "$A/ablations.md.tmp" "$A/ablations.md"
+cat "$A/ablations.md"

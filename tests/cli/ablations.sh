@@ -1,0 +1,39 @@
+#!/bin/bash
+# scripts/ablations.sh in QUICK mode on a QUICK train_small.sh folder (a few steps per variant):
+# every variant trains and is evaluated, the tables hold one row per variant with the same
+# baseline (the same held-out clips), a second run trains nothing, and a folder without the
+# recipe's outputs gives one clear line. It measures nothing; the real tables are in
+# docs/RESULTS.md.
+# Usage: bash ablations.sh /path/to/gaussvid   ($GV_TMP scratch)
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup ablations "$1"
+SCRIPTS="$(dirname "$0")/../../scripts"
+export GAUSSVID="$G" QUICK=1 OMP_NUM_THREADS=1
+
+bash "$SCRIPTS/train_small.sh" "$T/w" >"$T/out" 2>"$T/err"
+check_rc "quick recipe runs: $(tail -3 "$T/err")" $?
+bash "$SCRIPTS/ablations.sh" "$T/w" >"$T/out" 2>"$T/err"
+check_rc "quick ablations run: $(tail -3 "$T/err")" $?
+M="$T/w/ablations/ablations.md"
+exists "$M"
+for v in ours camera-none camera-early camera-monolithic shuffle curriculum progressive anchors-none \
+         anchors-first vanilla-lora per-frame; do
+    exists "$T/w/ablations/$v.safetensors"
+done
+exists "$T/w/ablations/zero-shot.json"
+check "four tables" test "$(grep -c '^### ' "$M")" -eq 4
+check "fifteen rows with numbers" test "$(grep -cE '^\| [^|]+ \| [0-9.]+ / [0-9.]+ \| [0-9.]+ / [0-9.]+ \| [-+][0-9.]+ \| [-+][0-9.]+ \|$' "$M")" -eq 15
+check "one baseline in every row" test "$(grep -E '^\| [^|]+ \| [0-9.]+ /' "$M" | cut -d'|' -f3 | sort -u | wc -l)" -eq 1
+check "eleven variants trained" test "$(wc -l <"$T/w/ablations/times.tsv")" -eq 11
+
+bash "$SCRIPTS/ablations.sh" "$T/w" >"$T/out" 2>"$T/err"
+check_rc "second run" $?
+check "second run skips every variant" test "$(grep -c 'evaluated, skipped' "$T/out")" -eq 12
+check "nothing trained again" test "$(wc -l <"$T/w/ablations/times.tsv")" -eq 11
+
+mkdir -p "$T/empty"
+bash "$SCRIPTS/ablations.sh" "$T/empty" >"$T/out" 2>"$T/err"
+check_rc "folder without a recipe exits 1" $(($? == 1 ? 0 : 1))
+one_line "run scripts/train_small.sh"
+
+cli_finish
