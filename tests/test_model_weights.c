@@ -258,7 +258,7 @@ static void test_camera_and_lora(void)
     expect(&l, "camera_encoder.conv.weight", 5, 8, 6, 4, 16, 16);
     expect(&l, "blocks.0.camera_modulation", -1, 0, 0, 0, 0, 0);
     gv_weight_list_free(&l);
-    /* small: no text, so no cross-attention or norm3; patch 1x4x4 and kernel (4, 16, 16). */
+    /* small: no text, so no cross-attention or norm3; patch 1x4x4 and kernel (1, 16, 16). */
     CHECK(build(&l, &n, "small", NULL) == 0);
     expect(&l, "blocks.0.cross_attn.q.weight", -1, 0, 0, 0, 0, 0);
     expect(&l, "blocks.0.norm3.weight", -1, 0, 0, 0, 0, 0);
@@ -266,15 +266,15 @@ static void test_camera_and_lora(void)
     expect(&l, "patch_embedding.weight", 5, 192, 16, 1, 4, 4);
     expect(&l, "head.head.weight", 2, 256, 192, 0, 0, 0);
     expect(&l, "vace_patch_embedding.weight", 5, 192, 48, 1, 4, 4);
-    expect(&l, "camera_encoder.conv_m.weight", 5, 64, 3, 4, 16, 16);
+    expect(&l, "camera_encoder.conv_m.weight", 5, 64, 3, 1, 16, 16);
     expect(&l, "blocks.5.self_attn.k.lora_A.weight", 2, 16, 192, 0, 0, 0);
-    /* small's VAE: [1, 2, 4], time down [T, T]: both resamples 3D. */
-    expect(&l, "encoder.downsamples.1.time_conv.weight", 5, 32, 32, 3, 1, 1);
-    expect(&l, "encoder.downsamples.3.time_conv.weight", 5, 64, 64, 3, 1, 1);
+    /* small's VAE: [1, 2, 4], time down [F, F]: both resamples 2D, no time_conv. */
+    expect(&l, "encoder.downsamples.1.time_conv.weight", -1, 0, 0, 0, 0, 0);
+    expect(&l, "encoder.downsamples.3.time_conv.weight", -1, 0, 0, 0, 0, 0);
     expect(&l, "encoder.downsamples.4.shortcut.weight", 5, 128, 64, 1, 1, 1);
-    expect(&l, "decoder.upsamples.2.time_conv.weight", 5, 256, 128, 3, 1, 1);
+    expect(&l, "decoder.upsamples.2.time_conv.weight", -1, 0, 0, 0, 0, 0);
     expect(&l, "decoder.upsamples.5.resample.1.weight", 4, 32, 64, 3, 3, 0);
-    expect(&l, "decoder.upsamples.5.time_conv.weight", 5, 128, 64, 3, 1, 1);
+    expect(&l, "decoder.upsamples.5.time_conv.weight", -1, 0, 0, 0, 0, 0);
     gv_weight_list_free(&l);
 }
 

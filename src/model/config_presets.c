@@ -76,9 +76,10 @@ static void preset_wan_14b(gv_model_config *c)
     c->camera.proj_hidden = 5120;
 }
 
-/* small: the CPU default. Token grid of a 5-frame 144x256 clip: VAE 4x spatial and 4x
- * temporal (16 x 2 x 36 x 64 latents), patch 1x4x4: 2 x 9 x 16 = 288 video tokens plus 288
- * camera tokens. docs/MODEL.md counts its FLOPs against the 0.5 s step budget. */
+/* small: the CPU default. Token grid of a 5-frame 144x256 clip: VAE 4x spatial, no temporal
+ * packing (16 x 5 x 36 x 64 latents; a 4x temporal VAE caps a perfect restorer's gain at
+ * +0.5 dB, docs/VAE.md), patch 1x4x4: 5 x 9 x 16 = 720 video tokens plus 720 camera tokens.
+ * docs/MODEL.md counts its FLOPs against the 0.5 s step budget. */
 static void preset_small(gv_model_config *c)
 {
     gv_dit_config *d = &c->dit;
@@ -103,8 +104,8 @@ static void preset_small(gv_model_config *c)
     v->dim_mult[1] = 2;
     v->dim_mult[2] = 4;
     v->num_res_blocks = 1;
-    v->temperal_downsample[0] = v->temperal_downsample[1] = 1;
-    v->temporal_factor = 4;
+    v->temperal_downsample[0] = v->temperal_downsample[1] = 0;
+    v->temporal_factor = 1;
     v->spatial_factor = 4;
     c->camera.channels = 64;
     c->camera.gate_hidden = 128;

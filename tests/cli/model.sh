@@ -72,10 +72,10 @@ check_rc "14B camera line" $?
 check_rc "14B blocks" $?
 
 out=$("$G" model inspect --config small 2>&1)
-echo "$out" | grep -q "^clip 5x144x256: latent 2x36x64, 288 video + 288 camera tokens$"
+echo "$out" | grep -q "^clip 5x144x256: latent 5x36x64, 720 video + 720 camera tokens$"
 check_rc "small clip tokens" $?
 out=$("$G" model inspect --config small --frames 9 --height 288 --width 512 --variant none 2>&1)
-echo "$out" | grep -q "^clip 9x288x512: latent 3x72x128, 1728 video + 0 camera tokens$"
+echo "$out" | grep -q "^clip 9x288x512: latent 9x72x128, 5184 video + 0 camera tokens$"
 check_rc "small clip tokens for another clip, no camera" $?
 
 # ---- weight files -----------------------------------------------------------------------
