@@ -11,8 +11,8 @@
 #   GAUSSVID   the program (default build/gaussvid)
 #   STEPS      fine-tuning steps of every variant (default 1500; QUICK=1: 3)
 #   BATCH      clips per step (default 2; QUICK=1: 1)
-#   METHOD     the method's own variant flags, given to every run (default: none, the
-#              config's variant; e.g. "skip")
+#   METHOD     the method's own variant flags, given to every run (default "skip", as
+#              train_small.sh fine-tunes; "" for the config's variant)
 #   ONLY       run only these tables: camera strategy anchors adaptation (default all)
 #
 # Outputs in WORK_DIR/ablations: <variant>.safetensors, <variant>.md and .json (gaussvid eval),
@@ -29,7 +29,7 @@ W=${1:-runs/small}
 if [ "${QUICK:-0}" = 1 ]; then STEPS=${STEPS:-3} BATCH=${BATCH:-1}; fi
 STEPS=${STEPS:-1500}
 BATCH=${BATCH:-2}
-METHOD=${METHOD:-}
+METHOD=${METHOD-skip}
 ONLY=${ONLY:-camera strategy anchors adaptation}
 A="$W/ablations"
 
