@@ -33,7 +33,7 @@ if [ "$QUICK" = 1 ]; then
 else
   # Sized for 2.5 h on two cores (docs/TRAINING.md "The recipe's budget"): 3000-iteration
   # artifacts (about 4 CPU-minutes a run against 18 at 8000), three intervals, and the
-  # temporal-factor-1 network at about 0.9 CPU-s per clip and step.
+  # temporal-factor-1 network at about 0.8 CPU-s per clip and step.
   SYNTH=()
   ITERS=${ITERS:-3000} INTERVALS=${INTERVALS:-6,16,26} CLIPS_PER_RUN=${CLIPS_PER_RUN:-16}
   VAE_STEPS=${VAE_STEPS:-1500} PRETRAIN_STEPS=${PRETRAIN_STEPS:-2000}

@@ -267,7 +267,8 @@ static void test_camera_and_lora(void)
     expect(&l, "head.head.weight", 2, 256, 192, 0, 0, 0);
     expect(&l, "vace_patch_embedding.weight", 5, 192, 48, 1, 4, 4);
     expect(&l, "camera_encoder.conv_m.weight", 5, 64, 3, 1, 16, 16);
-    expect(&l, "blocks.5.self_attn.k.lora_A.weight", 2, 16, 192, 0, 0, 0);
+    expect(&l, "blocks.4.self_attn.k.lora_A.weight", 2, 16, 192, 0, 0, 0);
+    expect(&l, "blocks.5.self_attn.k.weight", -1, 0, 0, 0, 0, 0); /* 5 blocks */
     /* small's VAE: [1, 2, 4], time down [F, F]: both resamples 2D, no time_conv. */
     expect(&l, "encoder.downsamples.1.time_conv.weight", -1, 0, 0, 0, 0, 0);
     expect(&l, "encoder.downsamples.3.time_conv.weight", -1, 0, 0, 0, 0, 0);
