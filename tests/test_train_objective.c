@@ -29,6 +29,15 @@ static void make_latents(gv_clip_latents *l, const gv_model_config *c, int batch
                                l->plucker + b * per, NULL) == 0);
 }
 
+/* n standard normal values from seed (malloc'd), the noise eps of a sample. */
+static float *noise(int64_t n, uint64_t seed)
+{
+    float *eps = malloc((size_t)n * sizeof *eps);
+    CHECK(eps != NULL);
+    gv_fill_normal(eps, n, seed, 0, 0.0f, 1.0f);
+    return eps;
+}
+
 static void test_inputs_and_context(void)
 {
     /* hand-made: 2 latent values, batch 3, z_dim 2, vace_dim 5, one latent position */
@@ -93,8 +102,7 @@ static void test_sample_losses(void)
     gv_clip_latents l;
     make_latents(&l, &m.cfg, 1, 11);
     int64_t n = gv_clip_latents_z_count(&l);
-    float *eps = malloc((size_t)n * sizeof *eps), *x = malloc((size_t)n * sizeof *x), *v = malloc((size_t)n * sizeof *v);
-    gv_fill_normal(eps, n, 99, 0, 0.0f, 1.0f);
+    float *eps = noise(n, 99), *x = malloc((size_t)n * sizeof *x), *v = malloc((size_t)n * sizeof *v);
     gv_graph g;
     gv_graph_init(&g, 0);
     gv_sample_draw d = {0.2f, 1.0, 1.0, 0.1};
@@ -169,8 +177,7 @@ static void test_gradient_weights(void)
     gv_clip_latents l;
     make_latents(&l, &m.cfg, 1, 21);
     int64_t n = gv_clip_latents_z_count(&l), k = 0;
-    float *eps = malloc((size_t)n * sizeof *eps);
-    gv_fill_normal(eps, n, 5, 0, 0.0f, 1.0f);
+    float *eps = noise(n, 5);
     gv_graph g;
     gv_graph_init(&g, 0);
     gv_sample_draw d0 = {0.1f, 1.0, 1.0, 0.0}, d1 = d0, d2 = d0, dc = d0;
@@ -219,8 +226,7 @@ static void test_per_frame_sample(void)
     make_latents(&l, &m.cfg, 3, 31);
     int64_t n = gv_clip_latents_z_count(&l);
     CHECK(n == 3 * 4 * 16);
-    float *eps = malloc((size_t)n * sizeof *eps), *x = malloc((size_t)n * sizeof *x), *v = malloc((size_t)n * sizeof *v);
-    gv_fill_normal(eps, n, 8, 0, 0.0f, 1.0f);
+    float *eps = noise(n, 8), *x = malloc((size_t)n * sizeof *x), *v = malloc((size_t)n * sizeof *v);
     gv_graph g;
     gv_graph_init(&g, 0);
     gv_sample_draw d = {0.25f, 1.0, 1.0, 0.0};
@@ -268,8 +274,7 @@ static void test_skip_output(void)
     gv_clip_latents l;
     make_latents(&l, &m.cfg, 1, 21);
     int64_t n = gv_clip_latents_z_count(&l);
-    float *e = malloc((size_t)n * sizeof *e), *xt = malloc((size_t)n * sizeof *xt), *v = malloc((size_t)n * sizeof *v);
-    gv_fill_normal(e, n, 77, 0, 0.0f, 1.0f);
+    float *e = noise(n, 77), *xt = malloc((size_t)n * sizeof *xt), *v = malloc((size_t)n * sizeof *v);
     gv_graph g;
     gv_graph_init(&g, 0);
     const float t = 0.3f;

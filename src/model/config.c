@@ -233,6 +233,14 @@ int gv_model_config_validate(const gv_model_config *c, const char *source)
 
 /* ---- variants ------------------------------------------------------------------------- */
 
+/* "true" or "false" into *out, else a one-line error naming the key. */
+static int bool_value(const char *src, const char *key, const char *value, int *out)
+{
+    if (strcmp(value, "true") && strcmp(value, "false")) return gv_config_bad(src, key, "\"%s\" is not true or false", value);
+    *out = !strcmp(value, "true");
+    return 0;
+}
+
 static int set_one(gv_model_config *c, const char *key, const char *value, const char *src)
 {
     if (!strcmp(key, "camera")) {
@@ -244,13 +252,9 @@ static int set_one(gv_model_config *c, const char *key, const char *value, const
         if (a < 0) return gv_config_bad(src, "variant.anchors", "\"%s\" is not none, first or both", value);
         c->variant.anchors = (gv_anchors)a;
     } else if (!strcmp(key, "per_frame")) {
-        if (strcmp(value, "true") && strcmp(value, "false"))
-            return gv_config_bad(src, "variant.per_frame", "\"%s\" is not true or false", value);
-        c->variant.per_frame = !strcmp(value, "true");
+        return bool_value(src, "variant.per_frame", value, &c->variant.per_frame);
     } else if (!strcmp(key, "skip")) {
-        if (strcmp(value, "true") && strcmp(value, "false"))
-            return gv_config_bad(src, "variant.skip", "\"%s\" is not true or false", value);
-        c->variant.skip = !strcmp(value, "true");
+        return bool_value(src, "variant.skip", value, &c->variant.skip);
     } else if (!strcmp(key, "lora")) {
         char *end;
         long rank = strtol(value, &end, 10);
