@@ -30,6 +30,7 @@ if [ "${QUICK:-0}" = 1 ]; then STEPS=${STEPS:-3} BATCH=${BATCH:-1}; fi
 STEPS=${STEPS:-1500}
 BATCH=${BATCH:-2}
 METHOD=${METHOD-skip}
+N_MAX=${N_MAX:-28} # the curriculum's n_max, as train_small.sh fine-tunes
 ONLY=${ONLY:-camera strategy anchors adaptation}
 A="$W/ablations"
 
@@ -52,7 +53,7 @@ variant() {
   echo "== $name (variant: ${full:-as configured}; flags: ${*:-none})"
   if [ ! -e "$A/$name.safetensors" ]; then
     local start=$SECONDS
-    "$G" train --clips "$W/data" --base "$W/base.safetensors" ${full:+--variant "$full"} "$@" \
+    "$G" train --clips "$W/data" --base "$W/base.safetensors" ${full:+--variant "$full"} --n-max "$N_MAX" "$@" \
       --steps "$STEPS" --batch "$BATCH" --resume --log "$A/$name.tsv" --out "$A/$name.safetensors"
     printf '%s\t%d\n' "$name" $((SECONDS - start)) >> "$A/times.tsv"
   fi
