@@ -5,7 +5,8 @@
  * camera path), so no VAE or dataset is needed: clip latents are cached before training
  * anyway (DESIGN 6.2). Reported per run: clips per second of the optimiser steps (wall), CPU
  * seconds per clip (all threads; the steadier measure on a shared machine), the step graph's
- * arena peak; and the process's peak resident memory. */
+ * arena peak; the network's restoration time per clip with and without the camera-stream
+ * cache; and the process's peak resident memory. */
 #include <omp.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,6 +18,7 @@
 #include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/plucker.h"
+#include "gaussvid/restore.h"
 #include "gaussvid/train.h"
 
 enum { CLIPS = 4 };
@@ -115,7 +117,61 @@ static int time_run(const char *preset, int height, int width, const char *dir, 
     return rc;
 }
 
-static void print_table(FILE *out, const char *preset, int height, int width, const run *runs, int n, double rss)
+/* Restoration of one clip by the network (the default sampler on a fine-tuning-shaped
+ * network), with the camera stream computed once per clip and recomputed at every
+ * evaluation; the VAE's encoding and decoding are not included (bench model has them). */
+typedef struct {
+    double cached, fresh;  /* wall seconds per clip, best of the trials */
+    int evaluations;       /* network evaluations per clip */
+} restore_timing;
+
+static double restore_once(gv_dit *m, const gv_clip_latents *l, const gv_sampler *s, int use_cache, float *z,
+                           int *evaluations)
+{
+    gv_restore_net net;
+    double t0 = gv_now();
+    int rc = gv_restore_net_init(&net, m, l, use_cache);
+    if (rc == 0) rc = gv_sample(s, gv_restore_net_velocity, &net, l->z_corrupt, gv_clip_latents_z_count(l), 7, z);
+    double seconds = gv_now() - t0;
+    *evaluations = net.evaluations;
+    gv_restore_net_free(&net);
+    return rc ? -1 : seconds;
+}
+
+static int time_restore(const char *preset, int height, int width, int trials, restore_timing *r)
+{
+    gv_model_config cfg;
+    gv_latent_set set;
+    gv_dit m;
+    if (gv_model_config_load(&cfg, preset)) return -1;
+    if (make_set(&cfg, height, width, &set)) {
+        gv_latent_set_free(&set);
+        return -1;
+    }
+    if (gv_dit_init(&m, &cfg, 1)) {
+        gv_latent_set_free(&set);
+        return -1;
+    }
+    const gv_clip_latents *l = &set.clips[0];
+    gv_sampler s = gv_sampler_default();
+    float *z = malloc((size_t)gv_clip_latents_z_count(l) * sizeof *z);
+    int rc = z ? gv_dit_set_train_mode(&m, GV_DIT_FROZEN) : gv_fail("bench train: out of memory");
+    r->cached = r->fresh = 1e30;
+    for (int i = 0; rc == 0 && i < trials; i++) {
+        double c = restore_once(&m, l, &s, 1, z, &r->evaluations);
+        double f = c < 0 ? -1 : restore_once(&m, l, &s, 0, z, &r->evaluations);
+        if (c < 0 || f < 0) rc = -1;
+        if (c < r->cached) r->cached = c;
+        if (f < r->fresh) r->fresh = f;
+    }
+    free(z);
+    gv_dit_free(&m);
+    gv_latent_set_free(&set);
+    return rc;
+}
+
+static void print_table(FILE *out, const char *preset, int height, int width, const run *runs, int n,
+                        const restore_timing *rt, double rss)
 {
     fprintf(out, "training throughput: %s preset, 5x%dx%d clips (synthetic latents), %d thread(s)\n\n", preset, height,
             width, omp_get_max_threads());
@@ -125,6 +181,9 @@ static void print_table(FILE *out, const char *preset, int height, int width, co
         fprintf(out, "| %s | %s | %d x 2 | %.2f | %.3f | %.2f M | %.1f |\n", runs[i].name,
                 runs[i].variant ? runs[i].variant : "decomposed", runs[i].steps, runs[i].clips_per_second,
                 runs[i].cpu_per_clip, runs[i].trainable / 1e6, runs[i].arena_mib);
+    fprintf(out, "\nrestoration by the network, default sampler (%d evaluation(s) per clip, VAE excluded):\n"
+                 "%.3f s per clip with the camera-stream cache, %.3f s recomputing the camera stream\n",
+            rt->evaluations, rt->cached, rt->fresh);
     fprintf(out, "\npeak resident memory of the process: %.1f MiB\n", rss);
 }
 
@@ -155,12 +214,14 @@ int gv_bench_train(const gv_bench_options *o, const char *preset, int height, in
         runs[i].cpu_per_clip = (runs[i].cpu_seconds - first.cpu_seconds) / clips;
     }
     rmdir(dir);
+    restore_timing rt;
+    if (rc == 0) rc = time_restore(preset, height, width, o->quick ? 1 : 3, &rt);
     if (rc) return -1;
     struct rusage ru;
     getrusage(RUSAGE_SELF, &ru);
     double rss = ru.ru_maxrss / 1024.0;
     if (!o->json) {
-        print_table(out, preset, height, width, runs, n, rss);
+        print_table(out, preset, height, width, runs, n, &rt, rss);
         return 0;
     }
     fprintf(out, "{\"preset\": \"%s\", \"clip\": [5, %d, %d], \"threads\": %d, \"batch\": 2, \"runs\": [", preset,
@@ -170,7 +231,9 @@ int gv_bench_train(const gv_bench_options *o, const char *preset, int height, in
                      "\"cpu_seconds_per_clip\": %.4f, \"trainable\": %.0f, \"arena_peak_mib\": %.2f}",
                 i ? ", " : "", runs[i].name, runs[i].variant ? runs[i].variant : "decomposed", runs[i].steps,
                 runs[i].clips_per_second, runs[i].cpu_per_clip, runs[i].trainable, runs[i].arena_mib);
-    fprintf(out, "], \"max_rss_mib\": %.1f}\n", rss);
+    fprintf(out, "], \"restore\": {\"evaluations\": %d, \"seconds_per_clip_cached\": %.4f, "
+                 "\"seconds_per_clip_uncached\": %.4f}, \"max_rss_mib\": %.1f}\n",
+            rt.evaluations, rt.cached, rt.fresh, rss);
     return 0;
 }
 
@@ -192,8 +255,9 @@ int gv_bench_train_command(int argc, char **argv)
         "with the camera stream and without it (camera=none), for 10 steps of 2 clips each\n"
         "beyond a first step, on synthetic latents of a 5-frame clip (no VAE: latents\n"
         "are cached before training). Prints clips per second of the optimiser steps, CPU\n"
-        "seconds per clip, trainable parameters, the arena peak and the process's peak\n"
-        "resident memory. Results: docs/BENCHMARKS.md.",
+        "seconds per clip, trainable parameters, the arena peak, the network's restoration\n"
+        "time per clip with and without the camera-stream cache (default sampler, VAE\n"
+        "excluded) and the process's peak resident memory. Results: docs/BENCHMARKS.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int rc = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (rc != GV_ARGS_OK) return gv_args_exit_code(rc);

@@ -110,5 +110,6 @@ has "clips per second"
 expect 0 "bench train quick" -- "$G" bench train --quick --preset tiny --height 32 --width 32 --json
 has '"run": "fine-tune"'
 has '"max_rss_mib"'
+has '"seconds_per_clip_cached"'
 expect 2 "bench train bad size" -- "$G" bench train --height 0
 cli_finish
