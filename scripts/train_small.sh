@@ -12,6 +12,7 @@
 #   QUICK=1      a smoke run of every stage in a few minutes (tiny scenes, few steps): checks
 #                that the stages chain, measures nothing
 #   Stage sizes: ITERS, INTERVALS, CLIPS_PER_RUN, VAE_STEPS, PRETRAIN_STEPS, TRAIN_STEPS, BATCH
+#   UNTIL=NAME   stop after the stage NAME (synth room-K, dataset, vae, pretrain, train, eval)
 #   N_MAX        the curriculum's n_max (default 28: with intervals up to 26, delta(26) < 1 lets
 #                n = 26 in before the last step; docs/TRAINING.md "The two schedules")
 #
@@ -54,12 +55,16 @@ stage() {
   shift 2
   if [ -e "$out" ]; then
     echo "== $name: $out exists, skipped"
-    return
+  else
+    echo "== $name"
+    local start=$SECONDS
+    "$@"
+    printf '%s\t%d\n' "$name" $((SECONDS - start)) >> "$TIMES"
   fi
-  echo "== $name"
-  local start=$SECONDS
-  "$@"
-  printf '%s\t%d\n' "$name" $((SECONDS - start)) >> "$TIMES"
+  if [ "$name" = "${UNTIL:-}" ]; then
+    echo "== stopped after $name (UNTIL)"
+    exit 0
+  fi
 }
 
 # 1. Scenes: procedural rooms (train and eval seeds) beside the shared scenes.

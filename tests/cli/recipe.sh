@@ -21,6 +21,11 @@ check_rc "second run" $?
 check "second run skips every stage" test "$(grep -c "exists, skipped" "$T/out")" -eq 9
 check "no stage ran again" test "$(wc -l <"$T/w/times.tsv")" -eq 9
 
+GAUSSVID="$G" QUICK=1 UNTIL=vae OMP_NUM_THREADS=1 bash "$SCRIPT" "$T/w" >"$T/out" 2>"$T/err"
+check_rc "UNTIL=vae" $?
+check "UNTIL=vae stops after the vae stage" grep -q "^== stopped after vae" "$T/out"
+check "UNTIL=vae lists no later stage" test "$(grep -c '^== ' "$T/out")" -eq 7
+
 GAUSSVID="$T/nowhere" bash "$SCRIPT" "$T/w2" >"$T/out" 2>"$T/err"
 check_rc "missing program exits 1" $(($? == 1 ? 0 : 1))
 one_line "not built"
