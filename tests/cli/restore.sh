@@ -81,7 +81,7 @@ expect 0 "eval" -- "$G" eval --ckpt "$C" --clips "$D" --json "$T/eval.json" --qu
 has "restored PSNR"
 check "eval json" grep -q '"per_n"' "$T/eval.json"
 check "eval json clips" test "$(json_number "$T/eval.json" restored clips)" = 3
-check "eval json sampler" grep -q '"sampler":.*"onestep t0=0.3' "$T/eval.json"
+check "eval json sampler" grep -q '"sampler":.*"onestep t0=0.05 steps=1 shift=1 samples=8' "$T/eval.json"
 check "baseline as identity" test "$(json_number "$T/eval.json" baseline psnr)" = "$b"
 expect 0 "eval again" -- "$G" eval --ckpt "$C" --clips "$D" --json "$T/eval2.json" --quiet --threads 1
 check "reproducible" cmp -s "$T/eval.json" "$T/eval2.json"
