@@ -144,11 +144,7 @@ static int time_restore(const char *preset, int height, int width, int trials, r
     gv_latent_set set;
     gv_dit m;
     if (gv_model_config_load(&cfg, preset)) return -1;
-    if (make_set(&cfg, height, width, &set)) {
-        gv_latent_set_free(&set);
-        return -1;
-    }
-    if (gv_dit_init(&m, &cfg, 1)) {
+    if (make_set(&cfg, height, width, &set) || gv_dit_init(&m, &cfg, 1)) { /* as time_run */
         gv_latent_set_free(&set);
         return -1;
     }
