@@ -2,7 +2,8 @@
  * and the velocity target of both objectives, the VACE context each allows, the losses of one
  * sample against an independent computation from the network's own forward pass, how the
  * weights w_cur, w_t, w_lat and the batch scale enter the gradient, and which tensors receive
- * gradients in fine-tuning; the `skip` output parameterisation in training and restoration. */
+ * gradients in fine-tuning; the `skip` and `residual` output parameterisations in training and
+ * restoration. */
 #include "check.h"
 #include "model_testutil.h"
 #include "gaussvid/restore.h"
@@ -316,6 +317,73 @@ static void test_skip_output(void)
     gv_dit_free(&m);
 }
 
+/* The residual output (train.h): both forms by hand, then with the tiny model: fine-tuning's
+ * L_FM is the squared error of z_hat + F, the output layer is trainable and receives gradient,
+ * and the restorer's velocity gives eps - v = z_hat + F at any sigma. */
+static void test_residual_output(void)
+{
+    float zh[3] = {2, -1, 0.5f}, eps[3] = {0.5f, 1, -2}, x[3], r1[3], r2[3];
+    gv_flow_noisy(zh, eps, 0.25f, 3, x);
+    gv_flow_residual_from_noise(zh, eps, 3, r1);
+    gv_flow_residual_from_x(zh, x, 0.25, 3, r2);
+    CHECK(r1[0] == -1.5f && r1[1] == 2.0f && r1[2] == -2.5f);
+    CHECK_NEAR(r2[0], 4.0 * (1.625 - 2), 1e-6); /* x0 = 0.75 * 2 + 0.25 * 0.5 */
+    CHECK_NEAR(r2[1], r1[1], 1e-6);
+    CHECK_NEAR(r2[2], r1[2], 1e-6);
+
+    gv_dit m;
+    CHECK(mt_model(&m, "residual", 8) == 0);
+    CHECK(m.cfg.variant.residual == 1 && m.cfg.variant.skip == 0);
+    const gv_weight_spec *head = gv_weight_list_find(&m.weights, "head.head.weight");
+    const gv_weight_spec *mod = gv_weight_list_find(&m.weights, "head.modulation");
+    CHECK(head && head->trainable && mod && !mod->trainable);
+    mt_randomize(&m, MT_ALL, 9);
+    CHECK(gv_dit_set_train_mode(&m, GV_DIT_FINETUNE) == 0);
+    gv_clip_latents l;
+    make_latents(&l, &m.cfg, 1, 23);
+    int64_t n = gv_clip_latents_z_count(&l);
+    float *e = noise(n, 78), *xt = malloc((size_t)n * sizeof *xt), *v = malloc((size_t)n * sizeof *v);
+    gv_graph g;
+    gv_graph_init(&g, 0);
+    const float t = 0.2f;
+    gv_sample_draw d = {t, 1.0, 1.0, 0.1};
+    gv_sample_losses fine;
+    gv_params_zero_grad(&m.params);
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, e, 1.0, 1, &fine) == 0);
+    gv_objective_inputs(&l, GV_OBJECTIVE_FINETUNE, t, e, xt, v);
+    float *F = independent_velocity(&m, &l, t, xt, GV_OBJECTIVE_FINETUNE);
+    double want_fm = 0, want_lat = 0;
+    for (int64_t i = 0; i < n; i++) {
+        double est = (double)l.z_corrupt[i] + F[i] - l.z_clean[i];
+        double vel = (double)e[i] - l.z_corrupt[i] - F[i];
+        want_fm += est * est;
+        want_lat += fabs((double)xt[i] - t * vel - l.z_clean[i]);
+    }
+    want_fm /= n, want_lat /= n;
+    CHECK_NEAR(fine.fm, want_fm, 1e-5 * want_fm);
+    CHECK_NEAR(fine.latent, want_lat, 1e-5 * want_lat);
+    const gv_param *hp = gv_params_find(&m.params, "head.head.weight");
+    double grad = 0;
+    for (int64_t i = 0; hp && hp->t.grad && i < hp->t.numel; i++) grad += fabs(hp->t.grad[i]);
+    CHECK(hp && hp->trainable && grad > 0);
+
+    gv_restore_net net;
+    CHECK(gv_restore_net_init(&net, &m, &l, 1) == 0);
+    CHECK(gv_restore_net_velocity(&net, xt, t, v) == 0);
+    double worst = 0;
+    for (int64_t i = 0; i < n; i++) {
+        double diff = fabs(((double)e[i] - v[i]) - ((double)l.z_corrupt[i] + F[i]));
+        if (diff > worst) worst = diff;
+    }
+    printf("residual: L_FM %.6f (independent %.6f), restore |(eps - v) - (z_hat + F)| max %.2e\n", fine.fm, want_fm, worst);
+    CHECK(worst < 2e-5);
+    gv_restore_net_free(&net);
+    free(F), free(e), free(xt), free(v);
+    gv_graph_free(&g);
+    gv_clip_latents_free(&l);
+    gv_dit_free(&m);
+}
+
 int main(void)
 {
     test_inputs_and_context();
@@ -323,5 +391,6 @@ int main(void)
     test_gradient_weights();
     test_per_frame_sample();
     test_skip_output();
+    test_residual_output();
     return check_summary();
 }

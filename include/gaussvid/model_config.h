@@ -72,6 +72,8 @@ typedef struct {
     int per_frame;     /* single frames, no anchors, no temporal attention */
     int skip;          /* fine-tuned output with the analytic skip: v = (1 - t)/t (x_t - z_hat) + t F
                           (docs/TRAINING.md "Output parameterisation"); changes no weight */
+    int residual;      /* fine-tuned output as the restoration residual: eps - v = z_hat + F, the
+                          head relearned from zero and trained (docs/TRAINING.md); not with skip */
 } gv_variant_config;
 
 typedef struct {
@@ -104,8 +106,9 @@ int gv_model_config_equal(const gv_model_config *a, const gv_model_config *b);
 
 /* ---- variants ------------------------------------------------------------------------- */
 /* Applies overrides "key=value[,key=value...]": camera=none|early|monolithic|decomposed,
- * anchors=none|first|both, per_frame=true|false, skip=true|false, lora=RANK (0 removes the
- * adapters); a bare camera name, "per-frame" or "skip" is short for the key form. Validates the result. */
+ * anchors=none|first|both, per_frame=true|false, skip=true|false, residual=true|false, lora=RANK
+ * (0 removes the adapters); a bare camera name, "per-frame", "skip" or "residual" is short for
+ * the key form. Validates the result. */
 int gv_model_config_set_variant(gv_model_config *c, const char *spec, const char *source);
 const char *gv_camera_variant_name(gv_camera_variant v);
 const char *gv_anchors_name(gv_anchors a);

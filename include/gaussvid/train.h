@@ -30,6 +30,11 @@ void gv_flow_target(const float *z0, const float *eps, int64_t n, float *v);
  * takes the second form (defined at t = 0); the samplers know x and take the first (t > 0). */
 void gv_flow_skip_from_noise(const float *z_hat, const float *eps, float t, int64_t n, float *s);
 void gv_flow_skip_from_x(const float *z_hat, const float *x, double t, int64_t n, float *s);
+/* The known part of the `residual` output: v = R - F with R = (x_t - z_hat)/t, which on the
+ * path equals eps - z_hat. So eps - v = z_hat + F: the network's output is the correction of
+ * the corrupted latent itself, whatever t (docs/TRAINING.md "Output parameterisation"). */
+void gv_flow_residual_from_noise(const float *z_hat, const float *eps, int64_t n, float *r);
+void gv_flow_residual_from_x(const float *z_hat, const float *x, double t, int64_t n, float *r);
 
 /* The pretraining timesteps of the reference (5.5): a grid sigma_k = shift(1 - k / 1000),
  * k = 0..999, drawn uniformly, each with the loss weight w_k = (y_k - min y) 1000 / sum(y - min y),

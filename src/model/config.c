@@ -228,6 +228,8 @@ int gv_model_config_validate(const gv_model_config *c, const char *source)
     if (c->variant.per_frame && c->variant.anchors != GV_ANCHORS_NONE) /* DESIGN 6.6 */
         return gv_config_bad(src, "variant.anchors", "a per-frame restorer has no anchors: use \"none\" (got \"%s\")",
                              gv_anchors_name(c->variant.anchors));
+    if (c->variant.skip && c->variant.residual)
+        return gv_config_bad(src, "variant.residual", "the skip and residual outputs exclude each other");
     return validate_lora(c, src);
 }
 
@@ -255,6 +257,8 @@ static int set_one(gv_model_config *c, const char *key, const char *value, const
         return bool_value(src, "variant.per_frame", value, &c->variant.per_frame);
     } else if (!strcmp(key, "skip")) {
         return bool_value(src, "variant.skip", value, &c->variant.skip);
+    } else if (!strcmp(key, "residual")) {
+        return bool_value(src, "variant.residual", value, &c->variant.residual);
     } else if (!strcmp(key, "lora")) {
         char *end;
         long rank = strtol(value, &end, 10);
@@ -263,7 +267,7 @@ static int set_one(gv_model_config *c, const char *key, const char *value, const
         else if (rank > 0) c->lora.alpha = (double)rank;
         c->lora.rank = (int)rank;
     } else {
-        return gv_config_bad(src, key, "unknown variant key (camera, anchors, per_frame, skip, lora)");
+        return gv_config_bad(src, key, "unknown variant key (camera, anchors, per_frame, skip, residual, lora)");
     }
     return 0;
 }
@@ -284,12 +288,12 @@ int gv_model_config_set_variant(gv_model_config *c, const char *spec, const char
         } else if (!strcmp(item, "per-frame") || !strcmp(item, "per_frame")) {
             rc = set_one(c, "per_frame", "true", src);
             if (!rc) c->variant.anchors = GV_ANCHORS_NONE;
-        } else if (!strcmp(item, "skip")) {
-            rc = set_one(c, "skip", "true", src);
+        } else if (!strcmp(item, "skip") || !strcmp(item, "residual")) {
+            rc = set_one(c, item, "true", src);
         } else if (gv_camera_variant_from_name(item) >= 0) {
             rc = set_one(c, "camera", item, src);
         } else {
-            rc = gv_fail("%s: \"%s\" is not a variant (camera name, per-frame, skip, or key=value)", src, item);
+            rc = gv_fail("%s: \"%s\" is not a variant (camera name, per-frame, skip, residual, or key=value)", src, item);
         }
         if (rc) return -1;
     }
@@ -335,7 +339,8 @@ int gv_model_config_equal(const gv_model_config *a, const gv_model_config *b)
     for (int i = 0; i < l->n_targets; i++)
         if (strcmp(l->targets[i], r->targets[i])) return 0;
     return a->variant.camera == b->variant.camera && a->variant.anchors == b->variant.anchors &&
-           a->variant.per_frame == b->variant.per_frame && a->variant.skip == b->variant.skip;
+           a->variant.per_frame == b->variant.per_frame && a->variant.skip == b->variant.skip &&
+           a->variant.residual == b->variant.residual;
 }
 
 void gv_model_camera_kernel(const gv_model_config *c, int kernel[3])

@@ -236,10 +236,11 @@ static int parse_lora(reader *r, const cJSON *o, gv_lora_config *l)
 
 static int parse_variant(reader *r, const cJSON *o, gv_variant_config *v)
 {
-    static const char *const known[] = {"camera", "anchors", "per_frame", "skip", NULL};
+    static const char *const known[] = {"camera", "anchors", "per_frame", "skip", "residual", NULL};
     const char *camera = NULL, *anchors = NULL;
     if (check_keys(r, o, known) || get_string(r, o, "camera", &camera) || get_string(r, o, "anchors", &anchors) ||
-        get_bool(r, o, "per_frame", 0, &v->per_frame) || get_bool(r, o, "skip", 0, &v->skip))
+        get_bool(r, o, "per_frame", 0, &v->per_frame) || get_bool(r, o, "skip", 0, &v->skip) ||
+        get_bool(r, o, "residual", 0, &v->residual))
         return -1;
     if (camera) {
         int c = gv_camera_variant_from_name(camera);
@@ -397,6 +398,7 @@ static cJSON *rest_json(cJSON *root, const gv_model_config *c)
     cJSON_AddStringToObject(variant, "anchors", gv_anchors_name(c->variant.anchors));
     cJSON_AddBoolToObject(variant, "per_frame", c->variant.per_frame);
     cJSON_AddBoolToObject(variant, "skip", c->variant.skip);
+    cJSON_AddBoolToObject(variant, "residual", c->variant.residual);
     return root;
 }
 

@@ -268,6 +268,9 @@ int gv_weight_list_build(gv_weight_list *l, const gv_model_config *c)
         gv_weight_list_free(l);
         return -1;
     }
+    /* The residual output relearns the output layer (docs/TRAINING.md "Output parameterisation"). */
+    for (int i = 0; c->variant.residual && i < l->n; i++)
+        if (!strncmp(l->items[i].name, "head.head.", 10)) l->items[i].trainable = 1;
     return 0;
 }
 

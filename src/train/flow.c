@@ -32,6 +32,17 @@ void gv_flow_skip_from_x(const float *z_hat, const float *x, double t, int64_t n
     for (int64_t i = 0; i < n; i++) s[i] = c * (x[i] - z_hat[i]);
 }
 
+void gv_flow_residual_from_noise(const float *z_hat, const float *eps, int64_t n, float *r)
+{
+    for (int64_t i = 0; i < n; i++) r[i] = eps[i] - z_hat[i];
+}
+
+void gv_flow_residual_from_x(const float *z_hat, const float *x, double t, int64_t n, float *r)
+{
+    float c = (float)(1.0 / t);
+    for (int64_t i = 0; i < n; i++) r[i] = c * (x[i] - z_hat[i]);
+}
+
 /* Reference 5.5: sigma from linspace(1, 0, 1001)[:-1], shifted; the weight is a bell around
  * timestep 500, shifted down to 0 at its minimum and normalised to mean 1 over the grid. */
 void gv_pretrain_schedule_init(gv_pretrain_schedule *s, double shift)

@@ -82,6 +82,9 @@ int gv_restore_net_velocity(void *ctx, const float *x, double sigma, float *v)
     if (r->model->cfg.variant.skip) { /* v = S + sigma F (train.h), as in fine-tuning */
         gv_flow_skip_from_x(l->z_corrupt, x, sigma, y->numel, v);
         for (int64_t i = 0; i < y->numel; i++) v[i] += (float)sigma * y->data[i];
+    } else if (r->model->cfg.variant.residual) { /* v = R - F (train.h), as in fine-tuning */
+        gv_flow_residual_from_x(l->z_corrupt, x, sigma, y->numel, v);
+        for (int64_t i = 0; i < y->numel; i++) v[i] -= y->data[i];
     } else {
         memcpy(v, y->data, (size_t)y->numel * sizeof *v);
     }

@@ -81,6 +81,10 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
             gv_tensor *skip = gv_tensor_new(g, 5, shape);
             if (skip) gv_flow_skip_from_noise(l->z_corrupt, eps, d->t, skip->numel, skip->data);
             v = skip ? gv_add(g, skip, gv_scale(g, v, d->t)) : NULL;
+        } else if (v && obj == GV_OBJECTIVE_FINETUNE && m->cfg.variant.residual) { /* v = R - F (train.h) */
+            gv_tensor *known = gv_tensor_new(g, 5, shape);
+            if (known) gv_flow_residual_from_noise(l->z_corrupt, eps, known->numel, known->data);
+            v = known ? gv_sub(g, known, v) : NULL;
         }
         fm = gv_l2_loss(g, v, target, NULL); /* paper eq. 7 as a mean over the latent */
         loss = gv_scale(g, fm, (float)(scale * d->w_cur * d->w_t));
