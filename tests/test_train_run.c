@@ -156,7 +156,7 @@ static int finetune(const char *base, const char *out, const ft_case *k, gv_trai
     gv_dit m;
     int camera_loaded = -1;
     CHECK(gv_dit_init(&m, &cfg, 2) == 0);
-    int rc = gv_checkpoint_load_base(base, &m, &camera_loaded);
+    int rc = gv_checkpoint_load_base(base, &m, 1, &camera_loaded);
     if (rc == 0) rc = gv_dit_set_train_mode(&m, GV_DIT_FINETUNE);
     gv_train_options o;
     gv_train_defaults(&o, GV_OBJECTIVE_FINETUNE);
@@ -249,7 +249,7 @@ static void test_loss_decreases(const char *base)
     one.count = 1; /* a fixed clip: every step trains on it */
     gv_dit m;
     int cam = 0;
-    CHECK(gv_dit_init(&m, &cfg, 2) == 0 && gv_checkpoint_load_base(base, &m, &cam) == 0 && cam == 1);
+    CHECK(gv_dit_init(&m, &cfg, 2) == 0 && gv_checkpoint_load_base(base, &m, 1, &cam) == 0 && cam == 1);
     CHECK(gv_dit_set_train_mode(&m, GV_DIT_FINETUNE) == 0);
     double before = fixed_loss(&m, &one.clips[0]);
     gv_train_options o;
@@ -265,6 +265,44 @@ static void test_loss_decreases(const char *base)
            after, r.clips_per_second, r.arena_peak / 1048576.0);
     CHECK(after < 0.8 * before);
     gv_dit_free(&m);
+    gv_latent_set_free(&set);
+}
+
+static double max_abs(const gv_dit *m, const char *name)
+{
+    const gv_param *p = gv_params_find(&m->params, name);
+    double mx = -1;
+    for (int64_t i = 0; p && i < p->t.numel; i++) mx = fmax(mx, fabs(p->t.data[i]));
+    return mx;
+}
+
+/* What fine-tuning starts from: the base's camera encoder, or its fresh initialisation with
+ * take_camera 0 (--fresh-camera); the base's output layer, or zeros in the residual variant,
+ * which therefore starts as the identity restorer. */
+static void test_base_start(const char *base)
+{
+    gv_model_config cfg, res;
+    gv_latent_set set;
+    setup_variant(NULL, &cfg, &set);
+    gv_dit a, fresh, r;
+    int cam = -1;
+    CHECK(gv_dit_init(&a, &cfg, 2) == 0 && gv_dit_init(&fresh, &cfg, 2) == 0);
+    CHECK(gv_checkpoint_load_base(base, &a, 0, &cam) == 0 && cam == 0);
+    const char *camera_w = NULL;
+    for (int i = 0; i < a.params.n && !camera_w; i++)
+        if (gv_weight_list_find(&a.weights, a.params.items[i]->t.name)->module == GV_MODULE_CAMERA &&
+            max_abs(&a, a.params.items[i]->t.name) > 0)
+            camera_w = a.params.items[i]->t.name;
+    CHECK(camera_w != NULL);
+    const gv_param *pa = gv_params_find(&a.params, camera_w), *pf = gv_params_find(&fresh.params, camera_w);
+    CHECK(pa && pf && !memcmp(pa->t.data, pf->t.data, (size_t)pa->t.numel * sizeof(float)));
+    CHECK(max_abs(&a, "head.head.weight") > 0); /* the base's (random) head */
+    res = cfg;
+    CHECK(gv_model_config_set_variant(&res, "residual", "test") == 0);
+    CHECK(gv_dit_init(&r, &res, 2) == 0 && gv_checkpoint_load_base(base, &r, 1, &cam) == 0 && cam == 1);
+    CHECK(max_abs(&r, "head.head.weight") == 0 && max_abs(&r, "head.head.bias") == 0);
+    CHECK(gv_dit_set_train_mode(&r, GV_DIT_FINETUNE) == 0 && gv_params_find(&r.params, "head.head.weight")->trainable);
+    gv_dit_free(&a), gv_dit_free(&fresh), gv_dit_free(&r);
     gv_latent_set_free(&set);
 }
 
@@ -389,7 +427,7 @@ static void test_checkpoint_load(void)
     CHECK(gv_model_config_validate(&wide, "test") == 0);
     CHECK(gv_dit_init(&m, &wide, 1) == 0);
     int cam;
-    CHECK_FAILS_WITH(gv_checkpoint_load_base(ft, &m, &cam), "another network");
+    CHECK_FAILS_WITH(gv_checkpoint_load_base(ft, &m, 1, &cam), "another network");
     gv_dit_free(&m);
 }
 
@@ -403,6 +441,7 @@ int main(void)
     write_random_base(base);
     test_finetune_resume(base);
     test_loss_decreases(base);
+    test_base_start(base);
     test_ablation_switches(base);
     test_checkpoint_load();
     return check_summary();

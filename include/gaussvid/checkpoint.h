@@ -55,9 +55,10 @@ int gv_checkpoint_save(const char *path, const gv_dit *m, const gv_model_config 
  * moments of its trainable tensors must be there with their shapes; sets m's AdamW step. */
 int gv_checkpoint_restore(const char *path, gv_dit *m, gv_train_state *s);
 /* Starts fine-tuning from a base: reads every tensor of m that the file has (the DiT and VACE
- * parts must all be there; the camera part only when the file's camera variant is m's, else
- * it keeps its fresh start); a tensor of another shape fails. *camera_loaded tells which. */
-int gv_checkpoint_load_base(const char *path, gv_dit *m, int *camera_loaded);
+ * parts must all be there; the camera part only when take_camera is set and the file's camera
+ * variant is m's, else it keeps its fresh start; the residual variant's output layer keeps its
+ * zero start); a tensor of another shape fails. *camera_loaded tells which. */
+int gv_checkpoint_load_base(const char *path, gv_dit *m, int take_camera, int *camera_loaded);
 /* 1 when two configs build the same network weights apart from the variant, the LoRA
  * adapters and the latent statistics (what a base and its fine-tuning may differ in). */
 int gv_config_same_network(const gv_model_config *a, const gv_model_config *b);

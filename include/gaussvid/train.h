@@ -138,6 +138,7 @@ typedef struct {
     int progressive;             /* fine-tuning: progressive latent loss */
     double lambda, tau_p;        /* paper: 0.1, 0.3 */
     long latent_warmup;          /* S_w; 0: S / 20 (the paper's 1000 of 20000 steps) */
+    int fresh_camera;            /* fine-tuning: camera encoder from its initialisation, not the base's */
     const char *out;             /* the final checkpoint (written when step S is reached) */
     const char *log_path;        /* tab-separated per-step log, or NULL */
 } gv_train_options;

@@ -35,10 +35,10 @@ static int run_config(const char *base, const char *config, const char *variant,
 }
 
 /* The network to fine-tune: fresh adapters and camera encoder, the base's weights loaded. */
-static int build_model(const char *base, const gv_model_config *cfg, uint64_t seed, gv_dit *m)
+static int build_model(const char *base, const gv_model_config *cfg, uint64_t seed, int fresh_camera, gv_dit *m)
 {
     int camera_loaded = 0;
-    if (gv_dit_init(m, cfg, seed) || gv_checkpoint_load_base(base, m, &camera_loaded) ||
+    if (gv_dit_init(m, cfg, seed) || gv_checkpoint_load_base(base, m, !fresh_camera, &camera_loaded) ||
         gv_dit_set_train_mode(m, GV_DIT_FINETUNE))
         return -1;
     if (gv_params_count(&m->params, 1) == 0)
@@ -69,6 +69,7 @@ int cmd_train(int argc, char **argv)
         {"seed", GV_FLAG_INT, &seed, "S", "random seed: adapters, data order, timesteps, noise (default 0)", 0},
         {"no-curriculum", GV_FLAG_BOOL, &no_curriculum, NULL, "ablation: shuffled clips, all weighted 1", 0},
         {"no-progressive-loss", GV_FLAG_BOOL, &no_progressive, NULL, "ablation: flow matching loss only", 0},
+        {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's (the paper trains it from scratch)", 0},
         {"t-max", GV_FLAG_DOUBLE, &o.t_max, "T", "timesteps t ~ U[0, T] (default 0.48)", 0},
         {"latent-warmup", GV_FLAG_INT, &s_w, "N", "S_w of the progressive loss (default S/20)", 0},
         {"p-w", GV_FLAG_DOUBLE, &o.p_w, "P", "curriculum warm-up fraction (default 0.05)", 0},
@@ -114,7 +115,7 @@ int cmd_train(int argc, char **argv)
     if (gv_train_load_data(clips, vae_path, base_state.vae_checksum, &cfg, &set, &meta)) return gv_report_failure();
     gv_dit m;
     gv_train_report r;
-    rc = build_model(base, &cfg, o.seed, &m);
+    rc = build_model(base, &cfg, o.seed, o.fresh_camera, &m);
     if (rc == 0)
         gv_info("train: %s (camera %s, anchors %s%s), %d clips, %.1f K trainable parameters, %ld steps of %d clips, "
                 "curriculum %s, progressive loss %s (S_w %ld)",

@@ -118,7 +118,7 @@ static int wanted(const gv_dit *m, const gv_st_file *f, const char *name, int sa
     return part == GV_PART_DIT || part == GV_PART_VACE;
 }
 
-int gv_checkpoint_load_base(const char *path, gv_dit *m, int *camera_loaded)
+int gv_checkpoint_load_base(const char *path, gv_dit *m, int take_camera, int *camera_loaded)
 {
     gv_st_file f;
     gv_model_config cfg;
@@ -132,7 +132,7 @@ int gv_checkpoint_load_base(const char *path, gv_dit *m, int *camera_loaded)
         gv_config_describe(&m->cfg, want, sizeof want);
         rc = gv_fail("%s: the base is another network (%s) than the config (%s)", path, have, want);
     }
-    int same_camera = rc == 0 && cfg.variant.camera == m->cfg.variant.camera && cfg.variant.camera != GV_CAMERA_NONE;
+    int same_camera = rc == 0 && take_camera && cfg.variant.camera == m->cfg.variant.camera && cfg.variant.camera != GV_CAMERA_NONE;
     for (int i = 0; rc == 0 && i < m->params.n; i++) {
         gv_param *p = m->params.items[i];
         if (!wanted(m, &f, p->t.name, same_camera)) continue;
