@@ -1,7 +1,9 @@
 /* gaussvid: one program, one subcommand per stage of the pipeline. */
+#include <cblas.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 #include "cli/commands.h"
@@ -37,20 +39,44 @@ static void print_usage(FILE *out)
     fprintf(out, "  %-10s %s\n", "version", "print the version");
 }
 
-/* OpenMP threads that wait by spinning make two-thread runs 5-25x slower as soon as another
- * job shares the cores (docs/BENCHMARKS.md), so waiting threads sleep unless the user chose
- * otherwise. libgomp reads its environment when it is loaded, before main, hence the one
- * re-execution; if it fails the program simply runs with the default policy. */
-static void prefer_passive_wait(char **argv)
+/* OpenBLAS picks its kernels from the CPU's model number; on a virtual CPU whose model it does
+ * not know ("Intel(R) Xeon(R) Processor") it falls back to the SSE3 "Prescott" kernels, which
+ * ran sgemm 6x slower than the AVX-512 ones on such a machine (docs/BENCHMARKS.md). The kernel
+ * the CPU's feature flags allow, when OpenBLAS chose a pre-AVX2 one; NULL otherwise. */
+static const char *better_blas_core(void)
 {
-    if (getenv("OMP_WAIT_POLICY") || getenv("GOMP_SPINCOUNT")) return;
-    if (setenv("OMP_WAIT_POLICY", "passive", 1) != 0) return;
-    execv("/proc/self/exe", argv);
+    static const char *const pre_avx2[] = {"Prescott", "Core2", "Penryn", "Dunnington", "Nehalem", "Atom",
+                                           "Sandybridge", "Katmai", "Coppermine", "Northwood", "Banias", NULL};
+    const char *core = openblas_get_corename();
+    int weak = 0;
+    for (int i = 0; core && pre_avx2[i]; i++) weak |= !strcasecmp(core, pre_avx2[i]);
+    if (!weak) return NULL;
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+        __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl"))
+        return "SkylakeX";
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return "Haswell";
+    return NULL;
+}
+
+/* The run-time environment that libgomp and OpenBLAS read when they are loaded, before main,
+ * hence one re-execution when something must change; if it fails the program runs as it is.
+ * OpenMP threads that wait by spinning make two-thread runs 5-25x slower as soon as another
+ * job shares the cores (docs/BENCHMARKS.md), so waiting threads sleep unless the user chose
+ * otherwise; and OpenBLAS gets the kernels the CPU supports unless OPENBLAS_CORETYPE is set. */
+static void prefer_runtime_env(char **argv)
+{
+    int changed = 0;
+    if (!getenv("OMP_WAIT_POLICY") && !getenv("GOMP_SPINCOUNT"))
+        changed |= setenv("OMP_WAIT_POLICY", "passive", 1) == 0;
+    const char *core = getenv("OPENBLAS_CORETYPE") ? NULL : better_blas_core();
+    if (core) changed |= setenv("OPENBLAS_CORETYPE", core, 1) == 0;
+    if (changed) execv("/proc/self/exe", argv);
 }
 
 int main(int argc, char **argv)
 {
-    prefer_passive_wait(argv);
+    prefer_runtime_env(argv);
     if (argc < 2) {
         print_usage(stderr);
         return 2;
