@@ -9,10 +9,9 @@
 #   WORK_DIR must hold what train_small.sh makes: data/ (both splits), base.safetensors.
 # Environment:
 #   GAUSSVID   the program (default build/gaussvid)
-#   STEPS      fine-tuning steps of every variant (default 1000, as train_small.sh; QUICK=1: 3)
-#   LR         fine-tuning learning rate (default 5e-4, as train_small.sh)
+#   STEPS      fine-tuning steps of every variant (default 1500; QUICK=1: 3)
 #   BATCH      clips per step (default 2; QUICK=1: 1)
-#   METHOD     the method's own variant flags, given to every run (default "residual", as
+#   METHOD     the method's own variant flags, given to every run (default "skip", as
 #              train_small.sh fine-tunes; "" for the config's variant)
 #   ONLY       run only these tables: camera strategy anchors adaptation (default all)
 #
@@ -28,10 +27,9 @@ export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} # threads sleep while they wa
 G=${GAUSSVID:-build/gaussvid}
 W=${1:-runs/small}
 if [ "${QUICK:-0}" = 1 ]; then STEPS=${STEPS:-3} BATCH=${BATCH:-1}; fi
-STEPS=${STEPS:-1000}
-LR=${LR:-5e-4}
+STEPS=${STEPS:-1500}
 BATCH=${BATCH:-2}
-METHOD=${METHOD-residual}
+METHOD=${METHOD-skip}
 N_MAX=${N_MAX:-28} # the curriculum's n_max, as train_small.sh fine-tunes
 ONLY=${ONLY:-camera strategy anchors adaptation}
 A="$W/ablations"
@@ -56,7 +54,7 @@ variant() {
   if [ ! -e "$A/$name.safetensors" ]; then
     local start=$SECONDS
     "$G" train --clips "$W/data" --base "$W/base.safetensors" ${full:+--variant "$full"} --n-max "$N_MAX" "$@" \
-      --fresh-camera --lr "$LR" --steps "$STEPS" --batch "$BATCH" --resume --log "$A/$name.tsv" --out "$A/$name.safetensors"
+      --steps "$STEPS" --batch "$BATCH" --resume --log "$A/$name.tsv" --out "$A/$name.safetensors"
     printf '%s\t%d\n' "$name" $((SECONDS - start)) >> "$A/times.tsv"
   fi
   evaluate "$name" "$A/$name.safetensors"
