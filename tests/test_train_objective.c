@@ -252,6 +252,22 @@ static void test_per_frame_sample(void)
     gv_dit_free(&m);
 }
 
+/* The restorer's velocity at (x, t) on clip l: the largest |(eps - v) - want| over the latent. */
+static double restore_error(gv_dit *m, const gv_clip_latents *l, const float *eps, const float *x, float t,
+                            const double *want)
+{
+    int64_t n = gv_clip_latents_z_count(l);
+    float *v = malloc((size_t)n * sizeof *v);
+    gv_restore_net net;
+    CHECK(v && gv_restore_net_init(&net, m, l, 1) == 0);
+    CHECK(gv_restore_net_velocity(&net, x, t, v) == 0);
+    double worst = 0;
+    for (int64_t i = 0; i < n; i++) worst = fmax(worst, fabs(((double)eps[i] - v[i]) - want[i]));
+    gv_restore_net_free(&net);
+    free(v);
+    return worst;
+}
+
 /* The analytic skip (train.h): both forms by hand, then with the tiny model: fine-tuning's
  * L_FM is the squared error of x_t - t F (F the network's raw output), pretraining ignores
  * the skip, and the restorer's velocity gives eps - v = x - sigma F. */
@@ -300,18 +316,12 @@ static void test_skip_output(void)
     CHECK(pre.fm == plain.fm && pre.latent == plain.latent);
     m.cfg.variant.skip = 1;
 
-    gv_restore_net net;
-    CHECK(gv_restore_net_init(&net, &m, &l, 1) == 0);
-    CHECK(gv_restore_net_velocity(&net, xt, t, v) == 0);
-    double worst = 0;
-    for (int64_t i = 0; i < n; i++) {
-        double diff = fabs(((double)e[i] - v[i]) - ((double)xt[i] - t * F[i]));
-        if (diff > worst) worst = diff;
-    }
+    double *want = malloc((size_t)n * sizeof *want);
+    for (int64_t i = 0; i < n; i++) want[i] = (double)xt[i] - t * F[i];
+    double worst = restore_error(&m, &l, e, xt, t, want);
     printf("skip: L_FM %.6f (independent %.6f), restore |(eps - v) - (x - t F)| max %.2e\n", fine.fm, want_fm, worst);
     CHECK(worst < 1e-5);
-    gv_restore_net_free(&net);
-    free(F), free(e), free(xt), free(v);
+    free(F), free(e), free(xt), free(v), free(want);
     gv_graph_free(&g);
     gv_clip_latents_free(&l);
     gv_dit_free(&m);
@@ -367,18 +377,12 @@ static void test_residual_output(void)
     for (int64_t i = 0; hp && hp->t.grad && i < hp->t.numel; i++) grad += fabs(hp->t.grad[i]);
     CHECK(hp && hp->trainable && grad > 0);
 
-    gv_restore_net net;
-    CHECK(gv_restore_net_init(&net, &m, &l, 1) == 0);
-    CHECK(gv_restore_net_velocity(&net, xt, t, v) == 0);
-    double worst = 0;
-    for (int64_t i = 0; i < n; i++) {
-        double diff = fabs(((double)e[i] - v[i]) - ((double)l.z_corrupt[i] + F[i]));
-        if (diff > worst) worst = diff;
-    }
+    double *want = malloc((size_t)n * sizeof *want);
+    for (int64_t i = 0; i < n; i++) want[i] = (double)l.z_corrupt[i] + F[i];
+    double worst = restore_error(&m, &l, e, xt, t, want);
     printf("residual: L_FM %.6f (independent %.6f), restore |(eps - v) - (z_hat + F)| max %.2e\n", fine.fm, want_fm, worst);
     CHECK(worst < 2e-5);
-    gv_restore_net_free(&net);
-    free(F), free(e), free(xt), free(v);
+    free(F), free(e), free(xt), free(v), free(want);
     gv_graph_free(&g);
     gv_clip_latents_free(&l);
     gv_dit_free(&m);

@@ -107,15 +107,16 @@ int gv_checkpoint_restore(const char *path, gv_dit *m, gv_train_state *s)
 
 /* A base's tensor that fine-tuning takes: DiT and VACE always, the camera encoder when the
  * base had the same camera variant (then all of it), LoRA adapters when the file has them.
- * The residual output's layer starts from its zero initialisation instead (the base's head
- * predicts a velocity, the residual head a correction): fine-tuning starts at the identity. */
+ * A DiT tensor that fine-tuning trains (the residual output's layer, weight_names.c) keeps its
+ * zero initialisation instead: the base's head predicts a velocity, the residual head a
+ * correction, so fine-tuning starts at the identity. */
 static int wanted(const gv_dit *m, const gv_st_file *f, const char *name, int same_camera)
 {
-    if (m->cfg.variant.residual && !strncmp(name, "head.head.", 10)) return 0;
-    unsigned part = gv_dit_param_part(m, name);
+    const gv_weight_spec *s = gv_weight_list_find(&m->weights, name);
+    unsigned part = s ? gv_module_part(s->module) : 0;
     if (part == GV_PART_CAMERA) return same_camera;
     if (part == GV_PART_LORA) return gv_st_find(f, name) != NULL;
-    return part == GV_PART_DIT || part == GV_PART_VACE;
+    return (part == GV_PART_DIT || part == GV_PART_VACE) && !s->trainable;
 }
 
 int gv_checkpoint_load_base(const char *path, gv_dit *m, int take_camera, int *camera_loaded)
