@@ -18,34 +18,33 @@ if(EXISTS /proc/cpuinfo)
   endif()
 endif()
 
-file(GLOB GV_UNIT_TESTS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/test_*.c)
-foreach(src ${GV_UNIT_TESTS})
-  get_filename_component(name ${src} NAME_WE)
-  add_executable(${name} ${src})
-  target_include_directories(${name} PRIVATE ${CMAKE_SOURCE_DIR}/src ${CMAKE_SOURCE_DIR}/tests)
-  target_link_libraries(${name} PRIVATE gaussvid_lib)
-  add_test(NAME ${name} COMMAND ${name})
-  set_tests_properties(${name} PROPERTIES LABELS unit
+# gv_add_test(NAME LABEL COMMAND...): one test with the shared data, its own scratch folder
+# and the BLAS kernels above.
+function(gv_add_test name label)
+  add_test(NAME ${name} COMMAND ${ARGN})
+  set_tests_properties(${name} PROPERTIES LABELS ${label}
     ENVIRONMENT "${GV_TEST_BLAS_CORE};GV_SHARED_DATA=${GV_SHARED_DATA};GV_TMP=${CMAKE_BINARY_DIR}/test-tmp/${name}")
-endforeach()
+endfunction()
 
+# gv_add_test_programs(GLOB LABEL): every tests/GLOB C file is a test program of that label.
+function(gv_add_test_programs pattern label)
+  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/${pattern})
+  foreach(src ${sources})
+    get_filename_component(name ${src} NAME_WE)
+    add_executable(${name} ${src})
+    target_include_directories(${name} PRIVATE ${CMAKE_SOURCE_DIR}/src ${CMAKE_SOURCE_DIR}/tests)
+    target_link_libraries(${name} PRIVATE gaussvid_lib)
+    gv_add_test(${name} ${label} ${name})
+  endforeach()
+endfunction()
+
+gv_add_test_programs(test_*.c unit)
 # Every tests/itest_*.c is an integration-test program (label "integration": real training
 # runs, too slow for the sanitizer build, which runs only the label "unit").
-file(GLOB GV_INTEGRATION_TESTS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/itest_*.c)
-foreach(src ${GV_INTEGRATION_TESTS})
-  get_filename_component(name ${src} NAME_WE)
-  add_executable(${name} ${src})
-  target_include_directories(${name} PRIVATE ${CMAKE_SOURCE_DIR}/src ${CMAKE_SOURCE_DIR}/tests)
-  target_link_libraries(${name} PRIVATE gaussvid_lib)
-  add_test(NAME ${name} COMMAND ${name})
-  set_tests_properties(${name} PROPERTIES LABELS integration
-    ENVIRONMENT "${GV_TEST_BLAS_CORE};GV_SHARED_DATA=${GV_SHARED_DATA};GV_TMP=${CMAKE_BINARY_DIR}/test-tmp/${name}")
-endforeach()
+gv_add_test_programs(itest_*.c integration)
 
 file(GLOB GV_CLI_TESTS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/cli/*.sh)
 foreach(script ${GV_CLI_TESTS})
   get_filename_component(name ${script} NAME_WE)
-  add_test(NAME cli_${name} COMMAND bash ${script} $<TARGET_FILE:gaussvid>)
-  set_tests_properties(cli_${name} PROPERTIES LABELS cli
-    ENVIRONMENT "${GV_TEST_BLAS_CORE};GV_SHARED_DATA=${GV_SHARED_DATA};GV_TMP=${CMAKE_BINARY_DIR}/test-tmp/cli_${name}")
+  gv_add_test(cli_${name} cli bash ${script} $<TARGET_FILE:gaussvid>)
 endforeach()
