@@ -58,9 +58,9 @@ static void test_inputs_and_context(void)
     ok = 1;
     for (int i = 0; i < 6; i++) ok &= fabsf(x[i] - (0.75f * zc[i] + 0.25f * eps[i])) < 1e-7f && v[i] == eps[i] - zc[i];
     CHECK(ok);                                                /* standard flow matching from z0 */
-    gv_objective_vace(&l, GV_OBJECTIVE_FINETUNE, out);
+    gv_objective_vace(&l, 1, out);
     CHECK(memcmp(out, vace, sizeof vace) == 0);
-    gv_objective_vace(&l, GV_OBJECTIVE_PRETRAIN, out);
+    gv_objective_vace(&l, 0, out);
     ok = 1;
     for (int b = 0; b < 3; b++)
         for (int c = 0; c < 5; c++) {
@@ -106,7 +106,7 @@ static void test_sample_losses(void)
     float *eps = noise(n, 99), *x = malloc((size_t)n * sizeof *x), *v = malloc((size_t)n * sizeof *v);
     gv_graph g;
     gv_graph_init(&g, 0);
-    gv_sample_draw d = {0.2f, 1.0, 1.0, 0.1};
+    gv_sample_draw d = {0.2f, 1.0, 1.0, 0.1, 0};
     gv_sample_losses s;
     /* Wan's zero-initialised head: v = 0, so L_FM = mean (eps - z0*)^2 and L_lat = mean |x_t - z0*| */
     CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, eps, 1.0, 0, &s) == 0);
@@ -119,7 +119,7 @@ static void test_sample_losses(void)
     /* a "pretrained" network: the losses from its own forward pass, computed here */
     mt_randomize(&m, MT_ALL, 5);
     for (int obj = 0; obj < 2; obj++) {
-        gv_sample_draw e = {0.37f, obj == GV_OBJECTIVE_PRETRAIN ? 1.7 : 1.0, 0.8, 0.05};
+        gv_sample_draw e = {0.37f, obj == GV_OBJECTIVE_PRETRAIN ? 1.7 : 1.0, 0.8, 0.05, 0};
         CHECK(gv_train_sample(&m, &g, &l, (gv_objective)obj, &e, eps, 1.0, 0, &s) == 0);
         gv_objective_inputs(&l, (gv_objective)obj, 0.37f, eps, x, v);
         float *vel = independent_velocity(&m, &l, 0.37f, x, (gv_objective)obj);
@@ -137,7 +137,7 @@ static void test_sample_losses(void)
     }
     /* pretraining ignores the renders: z-hat and the reactive context do not change its loss */
     gv_sample_losses p1, p2, f1, f2;
-    gv_sample_draw e = {0.3f, 1.0, 1.0, 0.1};
+    gv_sample_draw e = {0.3f, 1.0, 1.0, 0.1, 0};
     CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_PRETRAIN, &e, eps, 1.0, 0, &p1) == 0);
     CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &e, eps, 1.0, 0, &f1) == 0);
     gv_fill_normal(l.z_corrupt, n, 1234, 0, 0.0f, 1.0f);
@@ -181,7 +181,7 @@ static void test_gradient_weights(void)
     float *eps = noise(n, 5);
     gv_graph g;
     gv_graph_init(&g, 0);
-    gv_sample_draw d0 = {0.1f, 1.0, 1.0, 0.0}, d1 = d0, d2 = d0, dc = d0;
+    gv_sample_draw d0 = {0.1f, 1.0, 1.0, 0.0, 0}, d1 = d0, d2 = d0, dc = d0;
     d1.w_lat = 0.1, d2.w_lat = 0.2, dc.w_cur = 0.6;
     double *g0 = grads(&m, &g, &l, &d0, eps, 1.0, &k), *g1 = grads(&m, &g, &l, &d1, eps, 1.0, &k);
     double *g2 = grads(&m, &g, &l, &d2, eps, 1.0, &k), *gs = grads(&m, &g, &l, &d0, eps, 0.5, &k);
@@ -230,7 +230,7 @@ static void test_per_frame_sample(void)
     float *eps = noise(n, 8), *x = malloc((size_t)n * sizeof *x), *v = malloc((size_t)n * sizeof *v);
     gv_graph g;
     gv_graph_init(&g, 0);
-    gv_sample_draw d = {0.25f, 1.0, 1.0, 0.0};
+    gv_sample_draw d = {0.25f, 1.0, 1.0, 0.0, 0};
     gv_sample_losses s;
     CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, eps, 1.0, 0, &s) == 0);
     gv_objective_inputs(&l, GV_OBJECTIVE_FINETUNE, 0.25f, eps, x, v);
@@ -295,7 +295,7 @@ static void test_skip_output(void)
     gv_graph g;
     gv_graph_init(&g, 0);
     const float t = 0.3f;
-    gv_sample_draw d = {t, 1.0, 1.0, 0.1};
+    gv_sample_draw d = {t, 1.0, 1.0, 0.1, 0};
     gv_sample_losses fine, pre, plain;
     CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, e, 1.0, 0, &fine) == 0);
     gv_objective_inputs(&l, GV_OBJECTIVE_FINETUNE, t, e, xt, v);
@@ -356,7 +356,7 @@ static void test_residual_output(void)
     gv_graph g;
     gv_graph_init(&g, 0);
     const float t = 0.2f;
-    gv_sample_draw d = {t, 1.0, 1.0, 0.1};
+    gv_sample_draw d = {t, 1.0, 1.0, 0.1, 0};
     gv_sample_losses fine;
     gv_params_zero_grad(&m.params);
     CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, e, 1.0, 1, &fine) == 0);

@@ -108,6 +108,7 @@ static void pretrain(const char *out, long stop_after, int resume, gv_train_repo
     gv_train_defaults(&o, GV_OBJECTIVE_PRETRAIN);
     o.steps = 6, o.batch = 2, o.lr = 1e-3, o.warmup = 2, o.min_lr = 1e-4, o.checkpoint_every = 2;
     o.stop_after = stop_after, o.resume = resume, o.out = out, o.seed = 3;
+    o.render_context = 0.5; /* both contexts, so that resuming covers the draw */
     gv_train_state meta = meta_for("base", &set, NULL);
     CHECK(gv_train_run(&m, &cfg, &set, &o, &meta, r) == 0);
     gv_dit_free(&m);
@@ -230,7 +231,7 @@ static double fixed_loss(gv_dit *m, const gv_clip_latents *l)
     double sum = 0;
     for (int k = 0; k < 6; k++) {
         gv_fill_normal(eps, n, 500 + (uint64_t)k, 0, 0.0f, 1.0f);
-        gv_sample_draw d = {0.04f + 0.08f * k, 1.0, 1.0, 0.0};
+        gv_sample_draw d = {0.04f + 0.08f * k, 1.0, 1.0, 0.0, 0};
         gv_sample_losses s;
         CHECK(gv_train_sample(m, &g, l, GV_OBJECTIVE_FINETUNE, &d, eps, 1.0, 0, &s) == 0);
         sum += s.fm / 6;

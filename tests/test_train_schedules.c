@@ -1,10 +1,13 @@
 /* Training schedules (include/gaussvid/train.h) on hand-derived values: the flow-matching path
  * and target, the shift, the reference's pretraining grid and weights, the progressive latent
  * weight, the curriculum's difficulty, threshold, soft weight and batch choice, and the data
- * order's permutations. */
+ * order's permutations, and a step's draws. */
+#include <string.h>
+
 #include "check.h"
 #include "gaussvid/core.h"
 #include "gaussvid/train.h"
+#include "train/train_internal.h"
 
 static void test_flow(void)
 {
@@ -177,6 +180,43 @@ static void test_curriculum_batch(void)
     gv_data_order_free(&ref);
 }
 
+/* Pretraining with renders in the context: the share of such samples is the option's, and
+ * the timestep and noise of every sample are those of a run without them. */
+static void test_render_context_draws(void)
+{
+    gv_train_options off, half, all;
+    gv_train_defaults(&off, GV_OBJECTIVE_PRETRAIN);
+    off.seed = 5;
+    half = off, all = off;
+    half.render_context = 0.5, all.render_context = 1.0;
+    gv_pretrain_schedule grid;
+    gv_pretrain_schedule_init(&grid, off.shift);
+    enum { STEPS = 500, BATCH = 2, N = 8 };
+    int with = 0, none_off = 1, all_all = 1, same = 1;
+    for (long s = 0; s < STEPS; s++)
+        for (int b = 0; b < BATCH; b++) {
+            float e0[N], e1[N], e2[N];
+            gv_sample_draw d0, d1, d2;
+            gv_train_draw(&off, &grid, s, b, 1.0, N, e0, &d0);
+            gv_train_draw(&half, &grid, s, b, 1.0, N, e1, &d1);
+            gv_train_draw(&all, &grid, s, b, 1.0, N, e2, &d2);
+            with += d1.renders, none_off &= !d0.renders, all_all &= d2.renders;
+            same &= d0.t == d1.t && d0.w_t == d1.w_t && !memcmp(e0, e1, sizeof e0) && !memcmp(e0, e2, sizeof e0);
+        }
+    CHECK(none_off && all_all && same);
+    CHECK(with > 450 && with < 550); /* 1000 draws of p = 0.5: 6 standard deviations is 95 */
+    gv_train_options ft;
+    gv_train_defaults(&ft, GV_OBJECTIVE_FINETUNE);
+    float e[N];
+    gv_sample_draw d;
+    gv_train_draw(&ft, &grid, 0, 0, 1.0, N, e, &d);
+    CHECK(d.renders == 1); /* fine-tuning always restores from the renders */
+    half.out = "x";
+    CHECK(gv_train_check_options(&half) == 0);
+    half.render_context = 1.5;
+    CHECK(gv_train_check_options(&half) != 0);
+}
+
 int main(void)
 {
     test_flow();
@@ -185,5 +225,6 @@ int main(void)
     test_curriculum_values();
     test_data_order();
     test_curriculum_batch();
+    test_render_context_draws();
     return check_summary();
 }

@@ -96,6 +96,7 @@ typedef struct {
     double w_t;                  /* the timestep's loss weight (pretraining grid; else 1) */
     double w_cur;                /* curriculum weight (1 without curriculum) */
     double w_lat;                /* progressive latent loss weight (0 when off) */
+    int renders;                 /* pretraining: the VACE context keeps the renders (fine-tuning always does) */
 } gv_sample_draw;
 
 typedef struct {
@@ -108,10 +109,11 @@ typedef struct {
  * gv_clip_latents_z_count(l) floats). */
 void gv_objective_inputs(const gv_clip_latents *l, gv_objective obj, float t, const float *eps, float *x_t,
                          float *target);
-/* The VACE context the objective gives the network: fine-tuning the clip's own (anchors
- * inactive, renders reactive); pretraining the same with the reactive latents zeroed (only the
- * anchors: first-last-frame generation). out holds gv_clip_latents_vace_count(l) floats. */
-void gv_objective_vace(const gv_clip_latents *l, gv_objective obj, float *out);
+/* The VACE context a sample gives the network: with renders the clip's own (anchors inactive,
+ * renders reactive, as fine-tuning always has it); without, the reactive latents zeroed (only
+ * the anchors: first-last-frame generation, the base's usual task). out holds
+ * gv_clip_latents_vace_count(l) floats. */
+void gv_objective_vace(const gv_clip_latents *l, int renders, float *out);
 /* One sample: the forward pass on x_t, the losses, and (when backward) the backward pass of
  * scale * loss, accumulating into the trainable gradients. eps as above. */
 int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objective obj, const gv_sample_draw *d,
@@ -131,6 +133,7 @@ typedef struct {
     long checkpoint_every;       /* steps between resumable checkpoints (out + ".ckpt") */
     int resume;                  /* continue from out + ".ckpt" when it exists */
     double shift;                /* pretraining: the timestep grid's shift (reference 5.5: 5) */
+    double render_context;       /* pretraining: share of samples whose context keeps the renders (0: none) */
     double t_max;                /* fine-tuning: t ~ U[0, t_max] (paper: 0.48) */
     int curriculum;              /* fine-tuning: difficulty curriculum (0: shuffle) */
     int n_min, n_max;            /* delta(n) bounds (paper: 6, 26) */

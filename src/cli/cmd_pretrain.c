@@ -26,6 +26,8 @@ int cmd_pretrain(int argc, char **argv)
         {"min-lr", GV_FLAG_DOUBLE, &o.min_lr, "LR", "end of the cosine decay (default 3e-5)", 0},
         {"warmup", GV_FLAG_INT, &warmup, "N", "linear warm-up steps (default 100)", 0},
         {"shift", GV_FLAG_DOUBLE, &o.shift, "S", "shift of the timestep grid (default 5, as the reference; 1 = none)", 0},
+        {"render-context", GV_FLAG_DOUBLE, &o.render_context, "P",
+         "share of samples whose VACE context also holds the clip's renders (default 0)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "random seed: initial weights, data order, timesteps, noise (default 0)", 0},
         {"checkpoint-every", GV_FLAG_INT, &ckpt, "K", "steps between checkpoints FILE.ckpt (default 250)", 0},
         {"resume", GV_FLAG_BOOL, &o.resume, NULL, "continue from FILE.ckpt when it exists (bit-exact)", 0},
@@ -39,9 +41,12 @@ int cmd_pretrain(int argc, char **argv)
         "grid shifted by --shift and the loss weighted by the reference's bell around t = 500.\n"
         "The VACE context holds the anchors only (the reactive latents are zeroed): the base\n"
         "generates the intermediate frames from the first and last frame, and from the cameras\n"
-        "when the variant has them. Every tensor is trained (no LoRA). The clips are encoded\n"
-        "once by --vae and cached in the dataset folder. The base keeps the config's LoRA rank\n"
-        "in its metadata for `gaussvid train`. See docs/TRAINING.md.",
+        "when the variant has them. With --render-context P a share P of the samples keeps the\n"
+        "clip's corrupted renders as reactive context (a control video, as VACE is trained),\n"
+        "so that the base learns to read that stream; the target stays the clean clip.\n"
+        "Every tensor is trained (no LoRA). The clips are encoded once by --vae and cached in\n"
+        "the dataset folder. The base keeps the config's LoRA rank in its metadata for\n"
+        "`gaussvid train`. See docs/TRAINING.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);

@@ -45,11 +45,11 @@ void gv_train_options_text(const gv_train_options *o, char *out, size_t size)
 {
     snprintf(out, size,
              "objective=%s steps=%ld batch=%d lr=%g min_lr=%g warmup=%ld cosine=%d weight_decay=%g clip_norm=%g "
-             "seed=%llu shift=%g t_max=%g curriculum=%d n=%d:%d p_w=%g progressive=%d lambda=%g tau_p=%g S_w=%ld fresh_camera=%d",
+             "seed=%llu shift=%g t_max=%g curriculum=%d n=%d:%d p_w=%g progressive=%d lambda=%g tau_p=%g S_w=%ld fresh_camera=%d render_context=%g",
              o->objective == GV_OBJECTIVE_PRETRAIN ? "pretrain" : "finetune", o->steps, o->batch, o->lr, o->min_lr,
              o->warmup, o->cosine, o->weight_decay, o->clip_norm, (unsigned long long)o->seed, o->shift, o->t_max,
              o->curriculum, o->n_min, o->n_max, o->p_w, o->progressive, o->lambda, o->tau_p, gv_train_latent_warmup(o),
-             o->fresh_camera);
+             o->fresh_camera, o->render_context);
 }
 
 void gv_train_data_text(const gv_latent_set *data, const char *split, char *out, size_t size)
@@ -69,6 +69,8 @@ int gv_train_check_options(const gv_train_options *o)
     if (!(o->t_max > 0 && o->t_max <= 1) || !(o->shift > 0) || !(o->p_w > 0 && o->p_w < 1) || o->n_max <= o->n_min ||
         o->lambda < 0 || !(o->tau_p > 0))
         return gv_fail("training: t_max in (0, 1], shift > 0, p_w in (0, 1), n_max > n_min, lambda >= 0, tau_p > 0");
+    if (!(o->render_context >= 0 && o->render_context <= 1))
+        return gv_fail("training: the share of samples with renders in the context must be in [0, 1]");
     if (!o->out || !*o->out) return gv_fail("training: no output file");
     return 0;
 }
@@ -101,9 +103,11 @@ void gv_train_draw(const gv_train_options *o, const gv_pretrain_schedule *grid, 
         d->t = (float)grid->sigma[k];
         d->w_t = grid->weight[k];
         d->w_lat = 0;
+        d->renders = gv_rng_uniform(&r) < o->render_context; /* drawn after u: runs without renders keep their draws */
     } else {
         d->t = (float)(u * o->t_max); /* paper 3.4: t ~ U[0, 0.48] */
         d->w_t = 1.0;
+        d->renders = 1;
         d->w_lat = o->progressive
                        ? gv_progressive_weight(step, gv_train_latent_warmup(o), d->t, o->tau_p, o->lambda)
                        : 0.0;

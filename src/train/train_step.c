@@ -16,11 +16,11 @@ void gv_objective_inputs(const gv_clip_latents *l, gv_objective obj, float t, co
 }
 
 /* Channels [z_dim, 2 z_dim) of the context are the reactive latents (condition.h): the
- * corrupted renders. The base model generates the intermediates from the anchors alone. */
-void gv_objective_vace(const gv_clip_latents *l, gv_objective obj, float *out)
+ * corrupted renders. Without them the model generates the intermediates from the anchors. */
+void gv_objective_vace(const gv_clip_latents *l, int renders, float *out)
 {
     memcpy(out, l->vace, (size_t)gv_clip_latents_vace_count(l) * sizeof(float));
-    if (obj != GV_OBJECTIVE_PRETRAIN) return;
+    if (renders) return;
     int64_t plane = (int64_t)l->latent_frames * l->lh * l->lw;
     for (int b = 0; b < l->batch; b++)
         memset(out + ((int64_t)b * l->vace_dim + l->z_dim) * plane, 0, (size_t)(l->z_dim * plane) * sizeof(float));
@@ -35,7 +35,7 @@ static double latent_l1(const float *x_t, const float *v, const float *z0, float
 }
 
 /* The network's inputs besides the latent (NULL where the config has no such part). */
-static int side_inputs(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objective obj, gv_dit_inputs *in)
+static int side_inputs(gv_dit *m, gv_graph *g, const gv_clip_latents *l, int renders, gv_dit_inputs *in)
 {
     const gv_model_config *c = &m->cfg;
     int B = l->batch, T = l->latent_frames;
@@ -44,7 +44,7 @@ static int side_inputs(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_obje
             return gv_fail("clip n%d: VACE context of %d channels, the model takes %d", l->n, l->vace_dim, c->dit.vace_in_dim);
         in->vace = gv_tensor_new(g, 5, (int[]){B, l->vace_dim, T, l->lh, l->lw});
         if (!in->vace) return -1;
-        gv_objective_vace(l, obj, in->vace->data);
+        gv_objective_vace(l, renders, in->vace->data);
     }
     if (c->dit.cross_attn) { /* no prompts: a zero text context (condition.h) */
         in->text = gv_tensor_new(g, 3, (int[]){B, c->dit.text_len, c->dit.text_dim});
@@ -70,7 +70,7 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
     int was = gv_graph_set_grad(g, backward);
     gv_dit_inputs in = gv_dit_inputs_default();
     gv_tensor *x_t = gv_tensor_new(g, 5, shape), *target = gv_tensor_new(g, 5, shape);
-    int rc = x_t && target ? side_inputs(m, g, l, obj, &in) : -1;
+    int rc = x_t && target ? side_inputs(m, g, l, obj == GV_OBJECTIVE_FINETUNE || d->renders, &in) : -1;
     gv_tensor *v = NULL, *loss = NULL, *fm = NULL;
     if (rc == 0) {
         gv_objective_inputs(l, obj, d->t, eps, x_t->data, target->data);
