@@ -147,6 +147,7 @@ typedef struct {
     long latent_warmup, steps, stop_after;
     int resume;
     double lr;
+    const char *val_log;         /* validate on the eval split, logging here (NULL: no validation) */
 } ft_case;
 
 static int finetune(const char *base, const char *out, const ft_case *k, gv_train_report *r)
@@ -164,10 +165,17 @@ static int finetune(const char *base, const char *out, const ft_case *k, gv_trai
     o.steps = k->steps, o.batch = 2, o.lr = k->lr > 0 ? k->lr : 1e-3, o.checkpoint_every = 2;
     o.curriculum = k->curriculum, o.progressive = k->progressive, o.latent_warmup = k->latent_warmup;
     o.stop_after = k->stop_after, o.resume = k->resume, o.out = out, o.seed = 4;
+    gv_latent_set val;
+    memset(&val, 0, sizeof val);
+    if (k->val_log) {
+        CHECK(gv_train_load_val(data_dir, vae_path, &cfg, &val) == 0 && val.count == 1);
+        o.val = &val, o.val_every = 2, o.val_log = k->val_log;
+    }
     gv_train_state meta = meta_for("finetune", &set, base);
     if (rc == 0) rc = gv_train_run(&m, &cfg, &set, &o, &meta, r);
     gv_dit_free(&m);
     gv_latent_set_free(&set);
+    gv_latent_set_free(&val);
     return rc;
 }
 
@@ -194,7 +202,7 @@ static void test_finetune_resume(const char *base)
     path_of(a, sizeof a, "ft.safetensors");
     path_of(b, sizeof b, "ft_resumed.safetensors");
     gv_train_report r;
-    ft_case k = {NULL, 1, 1, 1, 6, 0, 0, 0};
+    ft_case k = {NULL, 1, 1, 1, 6, 0, 0, 0, NULL};
     CHECK(finetune(base, a, &k, &r) == 0);
     CHECK(r.clips_skipped > 0); /* the curriculum passed over hard clips early on */
     k.stop_after = 3;
@@ -307,20 +315,88 @@ static void test_base_start(const char *base)
     gv_latent_set_free(&set);
 }
 
+/* Validation: the residual variant starts as the identity, so its loss is the identity's, which
+ * is mean (z0* - z-hat)^2 computed here independently; the per-n groups average to the whole;
+ * the draws are fixed; and validating during a run leaves its trajectory bit for bit alone. */
+static void test_validation(const char *base)
+{
+    gv_model_config cfg;
+    gv_latent_set set;
+    setup_variant("residual", &cfg, &set);
+    gv_dit m;
+    int cam = -1;
+    CHECK(gv_dit_init(&m, &cfg, 2) == 0 && gv_checkpoint_load_base(base, &m, 1, &cam) == 0);
+    gv_graph g;
+    gv_graph_init(&g, 0);
+    gv_validation v, again;
+    CHECK(gv_train_validate(&m, &g, &set, 0.48, &v) == 0);
+    CHECK(v.groups == 4 && v.all_clips == TRAIN_CLIPS); /* n = 6, 12, 26, 16 */
+    double id_all = 0, from_groups = 0;
+    for (int i = 0; i < set.count; i++) {
+        const gv_clip_latents *l = &set.clips[i];
+        int64_t n = gv_clip_latents_z_count(l);
+        double sum = 0;
+        for (int64_t j = 0; j < n; j++) sum += ((double)l->z_clean[j] - l->z_corrupt[j]) * (l->z_clean[j] - l->z_corrupt[j]);
+        id_all += sum / (double)n / set.count;
+    }
+    for (int k = 0; k < v.groups; k++) {
+        CHECK_NEAR(v.loss[k], v.identity[k], 1e-5 * v.identity[k]);
+        from_groups += v.loss[k] * v.clips[k] / v.all_clips;
+    }
+    CHECK(v.n[0] == 6 && v.clips[0] == 2);
+    CHECK_NEAR(v.all_identity, id_all, 1e-12);
+    CHECK_NEAR(v.all_loss, from_groups, 1e-12);
+    CHECK(v.all_identity > 0);
+    CHECK(gv_train_validate(&m, &g, &set, 0.48, &again) == 0 && again.all_loss == v.all_loss);
+    gv_graph_free(&g);
+    gv_dit_free(&m);
+    gv_latent_set_free(&set);
+
+    char a[4200], b[4200], log[4200];
+    path_of(a, sizeof a, "val_off.safetensors");
+    path_of(b, sizeof b, "val_on.safetensors");
+    path_of(log, sizeof log, "val.tsv");
+    ft_case k = {"residual", 1, 1, 1, 4, 0, 0, 0, NULL};
+    gv_train_report r;
+    CHECK(finetune(base, a, &k, &r) == 0);
+    k.val_log = log;
+    CHECK(finetune(base, b, &k, &r) == 0);
+    CHECK(same_tensors(a, b, NULL));
+    FILE *f = fopen(log, "r");
+    char line[256];
+    int rows = 0, steps_ok = 1;
+    long step;
+    double loss = 0, identity = 0;
+    CHECK(f && fgets(line, sizeof line, f) && !strcmp(line, "step\tn\tclips\tloss\tidentity\n"));
+    while (f && fgets(line, sizeof line, f)) {
+        int n, clips;
+        if (sscanf(line, "%ld\t%d\t%d\t%lf\t%lf", &step, &n, &clips, &loss, &identity) == 5) {
+            steps_ok &= step == 2 * (rows / 2) && n == 6 && clips == 1; /* a row per n, then "all" */
+        } else {
+            CHECK(sscanf(line, "%ld\tall\t%d\t%lf\t%lf", &step, &clips, &loss, &identity) == 4);
+        }
+        if (rows == 1) CHECK_NEAR(loss, identity, 1e-5 * identity); /* step 0: the identity */
+        rows++;
+    }
+    if (f) fclose(f);
+    CHECK(rows == 6 && steps_ok && step == 4); /* steps 0, 2 and 4 */
+    CHECK(fabs(loss - identity) > 1e-6 * identity); /* trained: no longer the identity */
+}
+
 /* Every switch of the ablations changes what is trained. */
 static void test_ablation_switches(const char *base)
 {
     const ft_case cases[] = {
-        {NULL, 1, 1, 1, 4, 0, 0, 0},                 /* ours */
-        {NULL, 0, 1, 1, 4, 0, 0, 0},                 /* shuffle instead of the curriculum */
-        {NULL, 1, 0, 1, 4, 0, 0, 0},                 /* no progressive latent loss */
-        {"camera=none", 1, 1, 1, 4, 0, 0, 0},
-        {"camera=early", 1, 1, 1, 4, 0, 0, 0},
-        {"camera=monolithic", 1, 1, 1, 4, 0, 0, 0},
-        {"anchors=first", 1, 1, 1, 4, 0, 0, 0},
-        {"anchors=none", 1, 1, 1, 4, 0, 0, 0},
-        {"per-frame", 1, 1, 1, 4, 0, 0, 0},
-        {NULL, 1, 1, 4, 4, 0, 0, 0},                 /* S_w = S: the latent loss never switches on */
+        {NULL, 1, 1, 1, 4, 0, 0, 0, NULL},           /* ours */
+        {NULL, 0, 1, 1, 4, 0, 0, 0, NULL},           /* shuffle instead of the curriculum */
+        {NULL, 1, 0, 1, 4, 0, 0, 0, NULL},           /* no progressive latent loss */
+        {"camera=none", 1, 1, 1, 4, 0, 0, 0, NULL},
+        {"camera=early", 1, 1, 1, 4, 0, 0, 0, NULL},
+        {"camera=monolithic", 1, 1, 1, 4, 0, 0, 0, NULL},
+        {"anchors=first", 1, 1, 1, 4, 0, 0, 0, NULL},
+        {"anchors=none", 1, 1, 1, 4, 0, 0, 0, NULL},
+        {"per-frame", 1, 1, 1, 4, 0, 0, 0, NULL},
+        {NULL, 1, 1, 4, 4, 0, 0, 0, NULL},           /* S_w = S: the latent loss never switches on */
     };
     enum { N = sizeof cases / sizeof cases[0] };
     float *w[N];
@@ -443,6 +519,7 @@ int main(void)
     test_finetune_resume(base);
     test_loss_decreases(base);
     test_base_start(base);
+    test_validation(base);
     test_ablation_switches(base);
     test_checkpoint_load();
     return check_summary();

@@ -45,6 +45,8 @@ void gv_progress_start(gv_progress *p, const char *label, long total);
 /* Sets the count to `done`; `extra` (printf format, may be NULL) is shown after the bar. */
 void gv_progress_update(gv_progress *p, long done, const char *extra, ...)
     __attribute__((format(printf, 3, 4)));
+/* A log line (info level) in place of the bar, which is drawn again at the next update. */
+void gv_progress_note(gv_progress *p, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 void gv_progress_finish(gv_progress *p);
 /* Mutes (1) or unmutes (0) the bars started on the calling thread, e.g. in workers that run
  * side by side, whose bars would overwrite one another. */

@@ -144,6 +144,9 @@ typedef struct {
     int fresh_camera;            /* fine-tuning: camera encoder from its initialisation, not the base's */
     const char *out;             /* the final checkpoint (written when step S is reached) */
     const char *log_path;        /* tab-separated per-step log, or NULL */
+    const gv_latent_set *val;    /* fine-tuning: clips to validate on (NULL: none); not part of the trajectory */
+    long val_every;              /* steps between validations (also at the first and the last step) */
+    const char *val_log;         /* tab-separated validation log, or NULL */
 } gv_train_options;
 
 /* The defaults of an objective (docs/TRAINING.md). */
@@ -173,6 +176,21 @@ int gv_train_run(gv_dit *m, const gv_model_config *save_cfg, const gv_latent_set
 /* "N clips (split S), names fnv1a64 H": identifies a training set in checkpoints. */
 void gv_train_data_text(const gv_latent_set *data, const char *split, char *out, size_t size);
 
+/* ---- validation (train/validate.c) ---------------------------------------------------------- */
+#define GV_VAL_TIMES 4           /* timesteps per clip, evenly spaced in [0, t_max] */
+#define GV_VAL_GROUPS 16         /* intervals n told apart */
+typedef struct {
+    int groups;                  /* distinct intervals n, in order of appearance */
+    int n[GV_VAL_GROUPS], clips[GV_VAL_GROUPS];
+    double loss[GV_VAL_GROUPS];  /* mean velocity MSE = restored latent MSE (one step eps - v) */
+    double identity[GV_VAL_GROUPS]; /* the identity's: mean (z0* - z-hat)^2 */
+    int all_clips;
+    double all_loss, all_identity;
+} gv_validation;
+/* The fine-tuning loss of m on the clips of val at fixed draws (the same for every call and
+ * every run), beside the identity's, per interval and over all clips. g is scratch. */
+int gv_train_validate(gv_dit *m, gv_graph *g, const gv_latent_set *val, double t_max, gv_validation *out);
+
 /* ---- setting up (train/train_setup.c) -------------------------------------------------------- */
 /* Loads the VAE of a training run: its config (from the file's metadata when it has one) must
  * build the VAE of cfg; cfg->vae takes the file's latent statistics, which it must have. */
@@ -182,5 +200,7 @@ int gv_train_load_vae(const char *path, gv_model_config *cfg, gv_vae *vae);
  * want_checksum is not empty the VAE must have it (a base's VAE). */
 int gv_train_load_data(const char *clips_dir, const char *vae_path, const char *want_checksum, gv_model_config *cfg,
                        gv_latent_set *set, gv_train_state *meta);
+/* The "eval" clips of a dataset folder encoded the same way, to validate a run on. */
+int gv_train_load_val(const char *clips_dir, const char *vae_path, gv_model_config *cfg, gv_latent_set *set);
 
 #endif

@@ -78,6 +78,19 @@ void gv_progress_update(gv_progress *p, long done, const char *extra, ...)
     if (done < p->total) draw(p, text, 0);
 }
 
+void gv_progress_note(gv_progress *p, const char *fmt, ...)
+{
+    if (gv_log_level() < GV_LOG_INFO) return;
+    if (p->enabled && p->on_terminal) fputs("\r\033[K", stderr); /* the bar's line, redrawn next update */
+    va_list ap;
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+    fflush(stderr);
+    p->last_draw = 0;
+}
+
 void gv_progress_finish(gv_progress *p)
 {
     if (!p->enabled) return;

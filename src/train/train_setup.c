@@ -63,3 +63,14 @@ int gv_train_load_data(const char *clips_dir, const char *vae_path, const char *
     gv_train_data_text(set, "train", meta->data, sizeof meta->data);
     return 0;
 }
+
+int gv_train_load_val(const char *clips_dir, const char *vae_path, gv_model_config *cfg, gv_latent_set *set)
+{
+    gv_vae vae;
+    memset(set, 0, sizeof *set);
+    if (gv_train_load_vae(vae_path, cfg, &vae)) return -1;
+    int rc = gv_latent_set_load(clips_dir, "eval", vae_path, &vae, cfg, set);
+    gv_vae_free(&vae);
+    if (rc == 0 && set->count == 0) rc = gv_fail("%s: no clips in the eval split to validate on", clips_dir);
+    return rc;
+}

@@ -46,7 +46,7 @@ typedef struct {
     double *weight;
     float *eps;
     gv_graph g;
-    FILE *log;
+    FILE *log, *val_log;
 } loop_ctx;
 
 static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_options *o, int appending)
@@ -72,6 +72,11 @@ static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_optio
         if (!x->log) return gv_fail("%s: cannot open the log for writing", o->log_path);
         if (!appending) fprintf(x->log, "step\tseconds\tlr\tloss\tfm\tlatent\tthreshold\tskipped\tclips_per_s\n");
     }
+    if (o->val && o->val_log) {
+        x->val_log = fopen(o->val_log, appending ? "a" : "w");
+        if (!x->val_log) return gv_fail("%s: cannot open the validation log for writing", o->val_log);
+        if (!appending) fprintf(x->val_log, "step\tn\tclips\tloss\tidentity\n");
+    }
     return 0;
 }
 
@@ -81,6 +86,7 @@ static void ctx_free(loop_ctx *x)
     gv_graph_free(&x->g);
     free(x->difficulty), free(x->index), free(x->weight), free(x->eps);
     if (x->log) fclose(x->log);
+    if (x->val_log) fclose(x->val_log);
 }
 
 /* One optimiser step; *mean gets the batch's mean losses. */
@@ -125,6 +131,27 @@ static void show_step(loop_ctx *x, gv_progress *bar, const gv_train_state *st, l
                        x->o->steps, st->loss, mean->fm, mean->latent, dmax, rate);
 }
 
+/* Validates at step st->step: a line above the progress bar and rows in the validation log. */
+static int validate(gv_dit *m, loop_ctx *x, const gv_train_state *st, gv_progress *bar)
+{
+    gv_validation v;
+    if (gv_train_validate(m, &x->g, x->o->val, x->o->t_max, &v)) return gv_fail_context("step %ld", st->step);
+    char per_n[256] = "";
+    size_t used = 0;
+    for (int k = 0; k < v.groups && used < sizeof per_n; k++)
+        used += (size_t)snprintf(per_n + used, sizeof per_n - used, "%sn=%d %.5f/%.5f", k ? ", " : "", v.n[k],
+                                 v.loss[k], v.identity[k]);
+    gv_progress_note(bar, "validation at step %ld: loss %.5f, identity %.5f (%+.1f %%); %s", st->step, v.all_loss,
+                     v.all_identity, v.all_identity > 0 ? 100 * (v.all_loss / v.all_identity - 1) : 0.0, per_n);
+    if (x->val_log) {
+        for (int k = 0; k < v.groups; k++)
+            fprintf(x->val_log, "%ld\t%d\t%d\t%.6f\t%.6f\n", st->step, v.n[k], v.clips[k], v.loss[k], v.identity[k]);
+        fprintf(x->val_log, "%ld\tall\t%d\t%.6f\t%.6f\n", st->step, v.all_clips, v.all_loss, v.all_identity);
+        fflush(x->val_log);
+    }
+    return 0;
+}
+
 static int save_checkpoint(const char *path, gv_dit *m, const gv_model_config *cfg, const gv_train_state *st,
                            int with_moments)
 {
@@ -158,6 +185,8 @@ int gv_train_run(gv_dit *m, const gv_model_config *save_cfg, const gv_latent_set
     gv_progress_start(&bar, o->objective == GV_OBJECTIVE_PRETRAIN ? "pretrain" : "train", end > start ? end - start : 0);
     double t0 = gv_now(), seconds0 = st.seconds, avg = st.loss, first = 0, step_seconds = 0;
     long used0 = st.clips_used;
+    int validating = o->val && o->val_every > 0;
+    if (rc == 0 && validating && start == 0 && end > 0) rc = validate(m, &x, &st, &bar);
     for (long step = start; rc == 0 && step < end; step++) {
         double threshold = curriculum ? gv_curriculum_threshold(step, o->steps, o->p_w) : -1, lr = gv_lr_at(&sched, step);
         int skipped = 0;
@@ -171,6 +200,8 @@ int gv_train_run(gv_dit *m, const gv_model_config *save_cfg, const gv_latent_set
         double elapsed = gv_now() - t0, rate = step_seconds > 0 ? (double)(st.clips_used - used0) / step_seconds : 0;
         st.seconds = seconds0 + elapsed;
         show_step(&x, &bar, &st, step + 1 - start, lr, threshold, skipped, &mean, rate);
+        if (validating && (st.step % o->val_every == 0 || st.step == end)) rc = validate(m, &x, &st, &bar);
+        if (rc) break;
         if (st.step % o->checkpoint_every == 0 || st.step == end) rc = save_checkpoint(ckpt, m, save_cfg, &st, 1);
     }
     gv_progress_finish(&bar);
