@@ -55,6 +55,10 @@ int cmd_pretrain(int argc, char **argv)
                         "and --stop-after not negative\n");
         return 2;
     }
+    if (!(o.render_context >= 0 && o.render_context <= 1)) {
+        fprintf(stderr, "gaussvid pretrain: --render-context is a share of the samples, in [0, 1]\n");
+        return 2;
+    }
     o.steps = steps, o.warmup = warmup, o.seed = (uint64_t)seed, o.checkpoint_every = ckpt, o.stop_after = stop_after;
     o.out = out, o.log_path = log;
 

@@ -58,6 +58,11 @@ check "no final file before the end" test ! -e base2.safetensors
 expect 0 "pretrain, resumed" -- "$G" pretrain "${PRE[@]}" --out base2.safetensors --resume
 check "resumed pretraining is bit-exact" same_data base.safetensors base2.safetensors
 check "moments bit-exact too" same_data base.safetensors.ckpt base2.safetensors.ckpt
+expect 2 "render context above 1" -- "$G" pretrain "${PRE[@]}" --out x.safetensors --render-context 1.5
+one_line "render-context"
+expect 0 "pretrain with renders in the context" -- "$G" pretrain "${PRE[@]}" --out rc.safetensors --render-context 1
+check "render context recorded" grep -q "render_context=1" <(meta rc.safetensors training)
+check "renders in the context train other weights" differ base.safetensors rc.safetensors
 
 # Fine-tuning: straight and resumed, with the curriculum and the progressive loss on (S_w 1).
 FT=(--clips D --base base.safetensors --steps 4 --batch 2 --latent-warmup 1 --checkpoint-every 2 --quiet)
@@ -70,6 +75,14 @@ expect 0 "train, resumed" -- "$G" train "${FT[@]}" --out ft2.safetensors --resum
 check "resumed fine-tuning is bit-exact" same_data ft.safetensors ft2.safetensors
 expect 1 "resume with other options" -- "$G" train "${FT[@]}" --out ft2.safetensors --resume --lr 3e-4
 one_line "written with other training options"
+
+# Validation on the eval split (scene B, n = 6 and 8) at steps 0, 2 and 4 leaves the run alone.
+expect 2 "val log without clips" -- "$G" train "${FT[@]}" --out x.safetensors --val-log v.tsv
+one_line "need --val-clips"
+expect 0 "train with validation" -- "$G" train "${FT[@]}" --out val.safetensors --val-clips D --val-log val.tsv
+check "validation leaves the weights bit-exact" same_data ft.safetensors val.safetensors
+check "validation log: header and 3 rows at each of steps 0, 2, 4" test "$(wc -l <val.tsv)" -eq 10
+check "validation rows per n and all" test "$(cut -f2 val.tsv | sort | uniq -c | tr -s ' ' | tr '\n' ,)" = " 3 6, 3 8, 3 all, 1 n,"
 
 # Each ablation flag reaches the run and changes the trained weights.
 expect 0 "shuffle" -- "$G" train "${FT[@]}" --out shuffle.safetensors --no-curriculum
