@@ -91,6 +91,8 @@ typedef struct {
 int gv_latent_set_load(const char *dataset_dir, const char *split, const char *vae_path, gv_vae *vae,
                        const gv_model_config *cfg, gv_latent_set *out);
 void gv_latent_set_free(gv_latent_set *s);
+/* The most floats of one clip's z_clean over the set (0 when empty): the size of a noise buffer. */
+int64_t gv_latent_set_max_z_count(const gv_latent_set *s);
 /* FNV-1a 64 checksum of a VAE's weights (every tensor by name, in order) and its latent
  * statistics: the key of the latent cache. */
 uint64_t gv_vae_checksum(const gv_vae *vae);

@@ -47,6 +47,14 @@ int gv_latent_cache_path(char *out, size_t size, const char *dataset_dir, uint64
     return gv_path_join(out, size, dataset_dir, name);
 }
 
+int64_t gv_latent_set_max_z_count(const gv_latent_set *s)
+{
+    int64_t most = 0;
+    for (int i = 0; i < s->count; i++)
+        if (gv_clip_latents_z_count(&s->clips[i]) > most) most = gv_clip_latents_z_count(&s->clips[i]);
+    return most;
+}
+
 void gv_latent_set_free(gv_latent_set *s)
 {
     if (!s) return;

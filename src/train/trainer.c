@@ -56,9 +56,7 @@ static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_optio
     gv_graph_init(&x->g, 0);
     gv_pretrain_schedule_init(&x->grid, o->shift);
     if (gv_data_order_init(&x->order, data->count, o->seed)) return -1;
-    int64_t most = 0;
-    for (int i = 0; i < data->count; i++)
-        if (gv_clip_latents_z_count(&data->clips[i]) > most) most = gv_clip_latents_z_count(&data->clips[i]);
+    int64_t most = gv_latent_set_max_z_count(data);
     x->eps = malloc((size_t)most * sizeof *x->eps);
     x->index = malloc((size_t)o->batch * sizeof *x->index);
     x->weight = malloc((size_t)o->batch * sizeof *x->weight);

@@ -42,9 +42,7 @@ static double identity_loss(const gv_clip_latents *l)
 int gv_train_validate(gv_dit *m, gv_graph *g, const gv_latent_set *val, double t_max, gv_validation *out)
 {
     memset(out, 0, sizeof *out);
-    int64_t most = 0;
-    for (int i = 0; i < val->count; i++)
-        if (gv_clip_latents_z_count(&val->clips[i]) > most) most = gv_clip_latents_z_count(&val->clips[i]);
+    int64_t most = gv_latent_set_max_z_count(val);
     float *eps = malloc((size_t)(most > 0 ? most : 1) * sizeof *eps);
     if (!eps) return gv_fail("validation: out of memory");
     int rc = 0;
