@@ -1,7 +1,7 @@
 /* The conditioning of a clip (condition.h) on the tiny preset: latent shapes, each latent
  * against its own encoding of the pixels the spec says (ground truth, input, inactive and
  * reactive parts for every anchors variant), the mask channels, the Plücker field against the
- * ray formula, the per-frame layout; the latent cache (round trip, reuse, selective
+ * ray formula, windows of a clip (crops), the per-frame layout; the latent cache (round trip, reuse, selective
  * re-encoding, invalidation by another VAE or a damaged file); and bad inputs. */
 #include <sys/stat.h>
 
@@ -137,6 +137,52 @@ static void test_plucker(void)
     gv_model_config none = cfg;
     CHECK(gv_model_config_set_variant(&none, "none", "test") == 0);
     CHECK(gv_clip_latents_prepare(&vae, &none, &clip, &l) == 0 && l.plucker == NULL && l.z_clean);
+    gv_clip_latents_free(&l);
+    gv_clip_free(&clip);
+    gv_vae_free(&vae);
+}
+
+/* A window of a prepared clip: every latent and context plane cut exactly, and the Plücker
+ * window equal to the field of the same cameras with the principal point moved by the
+ * window's corner and the picture made the window's size (what a smaller photo would give). */
+static void test_crop(void)
+{
+    gv_model_config cfg;
+    gv_vae vae;
+    CHECK(rf_tiny(&cfg, &vae, NULL, 6) == 0);
+    gv_clip clip;
+    CHECK(rf_make_clip(&clip, "room", "train", 8, W, H, 10, 4) == 0);
+    gv_clip_latents l, c;
+    memset(&c, 0, sizeof c);
+    CHECK(gv_clip_latents_prepare(&vae, &cfg, &clip, &l) == 0);
+    const int y = 1, x = l.lw / 2, h = l.lh - 2, w = l.lw - x, sf = H / l.lh;
+    CHECK(h >= 1 && w >= 1 && sf == vae.cfg.spatial_factor);
+    CHECK(gv_clip_latents_crop(&l, y, x, h, w, &c) == 0);
+    CHECK(c.lh == h && c.lw == w && c.height == h * sf && c.width == w * sf && c.n == l.n && c.batch == l.batch);
+    int z_planes = l.z_dim * l.latent_frames, v_planes = l.vace_dim * l.latent_frames, bad = 0;
+    for (int p = 0; p < v_planes; p++)
+        for (int r = 0; r < h; r++)
+            for (int q = 0; q < w; q++) {
+                int64_t in = ((int64_t)p * l.lh + y + r) * l.lw + x + q, out = ((int64_t)p * h + r) * w + q;
+                bad += c.vace[out] != l.vace[in];
+                if (p < z_planes) bad += c.z_clean[out] != l.z_clean[in] || c.z_corrupt[out] != l.z_corrupt[in];
+            }
+    CHECK(bad == 0);
+    gv_camera cams[5];
+    gv_clip_cameras(&clip, cams);
+    for (int f = 0; f < 5; f++) {
+        cams[f].cx -= x * sf, cams[f].cy -= y * sf;
+        cams[f].width = w * sf, cams[f].height = h * sf;
+    }
+    float *want = malloc((size_t)gv_clip_latents_plucker_count(&c) * sizeof(float));
+    CHECK(gv_plucker_field(cams, 5, h * sf, w * sf, vae.cfg.temporal_factor, want, NULL) == 0);
+    CHECK_NEAR(rf_max_diff(want, c.plucker, gv_clip_latents_plucker_count(&c)), 0, 1e-6);
+    /* a second window of the same shape reuses the arrays; one outside the grid fails */
+    float *kept = c.z_clean;
+    CHECK(gv_clip_latents_crop(&l, 0, 0, h, w, &c) == 0 && c.z_clean == kept && c.z_clean[0] == l.z_clean[0]);
+    CHECK_FAILS_WITH(gv_clip_latents_crop(&l, 3, x, h, w, &c), "outside its");
+    free(want);
+    gv_clip_latents_free(&c);
     gv_clip_latents_free(&l);
     gv_clip_free(&clip);
     gv_vae_free(&vae);
@@ -314,6 +360,7 @@ int main(void)
     omp_set_num_threads(1); /* tiny shapes: threads only add synchronisation on a busy machine */
     test_variants();
     test_plucker();
+    test_crop();
     test_per_frame();
     test_cache(tmp);
     test_bad_inputs(tmp);

@@ -197,9 +197,13 @@ static void test_render_context_draws(void)
         for (int b = 0; b < BATCH; b++) {
             float e0[N], e1[N], e2[N];
             gv_sample_draw d0, d1, d2;
-            gv_train_draw(&off, &grid, s, b, 1.0, N, e0, &d0);
-            gv_train_draw(&half, &grid, s, b, 1.0, N, e1, &d1);
-            gv_train_draw(&all, &grid, s, b, 1.0, N, e2, &d2);
+            gv_train_window w0, w1, w2;
+            gv_train_draw(&off, &grid, s, b, 1.0, 9, 16, &d0, &w0);
+            gv_train_noise(&off, s, b, N, e0);
+            gv_train_draw(&half, &grid, s, b, 1.0, 9, 16, &d1, &w1);
+            gv_train_noise(&half, s, b, N, e1);
+            gv_train_draw(&all, &grid, s, b, 1.0, 9, 16, &d2, &w2);
+            gv_train_noise(&all, s, b, N, e2);
             with += d1.renders, none_off &= !d0.renders, all_all &= d2.renders;
             same &= d0.t == d1.t && d0.w_t == d1.w_t && !memcmp(e0, e1, sizeof e0) && !memcmp(e0, e2, sizeof e0);
         }
@@ -207,14 +211,52 @@ static void test_render_context_draws(void)
     CHECK(with > 450 && with < 550); /* 1000 draws of p = 0.5: 6 standard deviations is 95 */
     gv_train_options ft;
     gv_train_defaults(&ft, GV_OBJECTIVE_FINETUNE);
-    float e[N];
     gv_sample_draw d;
-    gv_train_draw(&ft, &grid, 0, 0, 1.0, N, e, &d);
+    gv_train_window w;
+    gv_train_draw(&ft, &grid, 0, 0, 1.0, 9, 16, &d, &w);
     CHECK(d.renders == 1); /* fine-tuning always restores from the renders */
     half.out = "x";
     CHECK(gv_train_check_options(&half) == 0);
     half.render_context = 1.5;
     CHECK(gv_train_check_options(&half) != 0);
+}
+
+/* Crops: every window position of the grid is drawn about equally often and none outside
+ * it; the timestep, weights and noise are those of the run without crops; a crop as large as
+ * the grid (or larger) is the whole grid, with no draw. */
+static void test_crop_draws(void)
+{
+    gv_train_options whole, crop, big;
+    gv_train_defaults(&whole, GV_OBJECTIVE_FINETUNE);
+    whole.seed = 11;
+    crop = whole, big = whole;
+    crop.crop_h = 4, crop.crop_w = 6;
+    big.crop_h = 9, big.crop_w = 20;
+    gv_pretrain_schedule grid;
+    gv_pretrain_schedule_init(&grid, whole.shift);
+    enum { STEPS = 2000, ROWS = 9, COLS = 16 };
+    int count[ROWS - 4 + 1][COLS - 6 + 1] = {{0}}, inside = 1, same = 1, uncropped = 1;
+    for (long s = 0; s < STEPS; s++) {
+        gv_sample_draw a, b, c;
+        gv_train_window wa, wb, wc;
+        gv_train_draw(&whole, &grid, s, 1, 1.0, ROWS, COLS, &a, &wa);
+        gv_train_draw(&crop, &grid, s, 1, 1.0, ROWS, COLS, &b, &wb);
+        gv_train_draw(&big, &grid, s, 1, 1.0, ROWS, COLS, &c, &wc);
+        same &= a.t == b.t && a.w_lat == b.w_lat && a.t == c.t;
+        uncropped &= wa.y == 0 && wa.x == 0 && wa.h == ROWS && wa.w == COLS;
+        uncropped &= wc.y == 0 && wc.x == 0 && wc.h == ROWS && wc.w == COLS;
+        inside &= wb.h == 4 && wb.w == 6 && wb.y >= 0 && wb.y + 4 <= ROWS && wb.x >= 0 && wb.x + 6 <= COLS;
+        if (inside) count[wb.y][wb.x]++;
+    }
+    CHECK(same && uncropped && inside);
+    int least = STEPS, most = 0; /* 66 positions, about 30 draws each */
+    for (int y = 0; y < ROWS - 4 + 1; y++)
+        for (int x = 0; x < COLS - 6 + 1; x++) least = count[y][x] < least ? count[y][x] : least, most = count[y][x] > most ? count[y][x] : most;
+    CHECK(least >= 10 && most <= 60);
+    crop.out = "x";
+    CHECK(gv_train_check_options(&crop) == 0);
+    crop.crop_w = -1;
+    CHECK(gv_train_check_options(&crop) != 0);
 }
 
 int main(void)
@@ -226,5 +268,6 @@ int main(void)
     test_data_order();
     test_curriculum_batch();
     test_render_context_draws();
+    test_crop_draws();
     return check_summary();
 }

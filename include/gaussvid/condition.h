@@ -63,6 +63,11 @@ int gv_clip_latents_shape(const gv_vae *vae, const gv_model_config *cfg, const g
 int gv_clip_latents_alloc(gv_clip_latents *l, int with_plucker);
 int gv_clip_latents_plucker(const gv_clip *clip, int temporal_factor, gv_clip_latents *l);
 
+/* Latent rows [y, y + h) and columns [x, x + w) of every frame of src (latents and VACE
+ * context) with the matching pixels of its Plücker field: the clip seen through a window
+ * (train --crop; condition_crop.c). dst is zeroed or an earlier crop: its arrays are reused
+ * when the shape is the same, else reallocated (free with gv_clip_latents_free). */
+int gv_clip_latents_crop(const gv_clip_latents *src, int y, int x, int h, int w, gv_clip_latents *dst);
 /* The cameras of a clip's 5 frames from its intrinsics and poses. */
 void gv_clip_cameras(const gv_clip *clip, gv_camera cams[GV_CLIP_FRAMES]);
 /* Frames [first, first + count) of a clip's inputs or targets (8-bit HWC) as a video

@@ -134,6 +134,7 @@ typedef struct {
     int resume;                  /* continue from out + ".ckpt" when it exists */
     double shift;                /* pretraining: the timestep grid's shift (reference 5.5: 5) */
     double render_context;       /* pretraining: share of samples whose context keeps the renders (0: none) */
+    int crop_h, crop_w;          /* each sample a random window of this many tokens (0: the whole grid in that axis) */
     double t_max;                /* fine-tuning: t ~ U[0, t_max] (paper: 0.48) */
     int curriculum;              /* fine-tuning: difficulty curriculum (0: shuffle) */
     int n_min, n_max;            /* delta(n) bounds (paper: 6, 26) */

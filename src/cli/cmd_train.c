@@ -53,7 +53,7 @@ int cmd_train(int argc, char **argv)
     gv_train_options o;
     gv_train_defaults(&o, GV_OBJECTIVE_FINETUNE);
     const char *clips = NULL, *base = NULL, *config = NULL, *vae = NULL, *variant = NULL, *out = NULL, *log = NULL;
-    const char *val_clips = NULL, *val_log = NULL;
+    const char *val_clips = NULL, *val_log = NULL, *crop = NULL;
     int steps = (int)o.steps, warmup = 0, seed = 0, ckpt = (int)o.checkpoint_every, stop_after = 0, s_w = 0;
     int val_every = 0;
     int no_curriculum = 0, no_progressive = 0;
@@ -73,6 +73,7 @@ int cmd_train(int argc, char **argv)
         {"no-progressive-loss", GV_FLAG_BOOL, &no_progressive, NULL, "ablation: flow matching loss only", 0},
         {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's (the paper trains it from scratch)", 0},
         {"t-max", GV_FLAG_DOUBLE, &o.t_max, "T", "timesteps t ~ U[0, T] (default 0.48)", 0},
+        {"crop", GV_FLAG_STRING, &crop, "RxC", "train each sample on a random window of R x C tokens of its clip (default: the whole clip)", 0},
         {"latent-warmup", GV_FLAG_INT, &s_w, "N", "S_w of the progressive loss (default S/20)", 0},
         {"p-w", GV_FLAG_DOUBLE, &o.p_w, "P", "curriculum warm-up fraction (default 0.05)", 0},
         {"n-min", GV_FLAG_INT, &o.n_min, "N", "interval of difficulty 0 (default 6)", 0},
@@ -102,6 +103,11 @@ int cmd_train(int argc, char **argv)
     if (steps < 1 || o.batch < 1 || warmup < 0 || seed < 0 || ckpt < 1 || stop_after < 0 || s_w < 0 || val_every < 0) {
         fprintf(stderr, "gaussvid train: --steps, --batch and --checkpoint-every must be positive; --warmup, --seed, "
                         "--stop-after, --latent-warmup and --val-every not negative\n");
+        return 2;
+    }
+    char tail;
+    if (crop && (sscanf(crop, "%dx%d%c", &o.crop_h, &o.crop_w, &tail) != 2 || o.crop_h < 1 || o.crop_w < 1)) {
+        fprintf(stderr, "gaussvid train: --crop %s: expected rows x columns of tokens, e.g. 6x8\n", crop);
         return 2;
     }
     if ((val_every || val_log) && !val_clips) {
@@ -134,12 +140,15 @@ int cmd_train(int argc, char **argv)
     gv_dit m;
     gv_train_report r;
     rc = build_model(base, &cfg, o.seed, o.fresh_camera, &m);
+    char window[64] = "";
+    if (crop) snprintf(window, sizeof window, ", random windows of %dx%d tokens", o.crop_h, o.crop_w);
     if (rc == 0)
         gv_info("train: %s (camera %s, anchors %s%s), %d clips, %.1f K trainable parameters, %ld steps of %d clips, "
-                "curriculum %s, progressive loss %s (S_w %ld)",
+                "curriculum %s, progressive loss %s (S_w %ld)%s",
                 cfg.name, gv_camera_variant_name(cfg.variant.camera), gv_anchors_name(cfg.variant.anchors),
                 cfg.variant.per_frame ? ", per-frame" : "", set.count, gv_params_count(&m.params, 1) / 1e3, o.steps,
-                o.batch, o.curriculum ? "on" : "off", o.progressive ? "on" : "off", gv_train_latent_warmup(&o));
+                o.batch, o.curriculum ? "on" : "off", o.progressive ? "on" : "off", gv_train_latent_warmup(&o),
+                window);
     if (rc == 0) rc = gv_train_run(&m, &cfg, &set, &o, &meta, &r);
     gv_dit_free(&m);
     gv_latent_set_free(&set);

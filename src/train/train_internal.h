@@ -14,10 +14,16 @@ int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state 
 unsigned gv_dit_param_part(const gv_dit *m, const char *name);
 
 /* train_options.c: the options that decide a run's steps, as one line (checkpoint metadata
- * "training"); their checks; the draws of clip b of a step (timestep, weights, noise eps[n]). */
+ * "training"); their checks; the draws of clip b of a step: timestep, weights and context in
+ * d, the window it sees of a grid of tokens_h x tokens_w tokens (the whole grid without
+ * crop), and its noise eps[n], n the floats of the (windowed) latent. */
+typedef struct {
+    int y, x, h, w;              /* first row and column, rows and columns, in tokens */
+} gv_train_window;
 void gv_train_options_text(const gv_train_options *o, char *out, size_t size);
 int gv_train_check_options(const gv_train_options *o);
 void gv_train_draw(const gv_train_options *o, const gv_pretrain_schedule *grid, long step, int b, double w_cur,
-                   int64_t n, float *eps, gv_sample_draw *d);
+                   int tokens_h, int tokens_w, gv_sample_draw *d, gv_train_window *win);
+void gv_train_noise(const gv_train_options *o, long step, int b, int64_t n, float *eps);
 
 #endif

@@ -45,11 +45,11 @@ void gv_train_options_text(const gv_train_options *o, char *out, size_t size)
 {
     snprintf(out, size,
              "objective=%s steps=%ld batch=%d lr=%g min_lr=%g warmup=%ld cosine=%d weight_decay=%g clip_norm=%g "
-             "seed=%llu shift=%g t_max=%g curriculum=%d n=%d:%d p_w=%g progressive=%d lambda=%g tau_p=%g S_w=%ld fresh_camera=%d render_context=%g",
+             "seed=%llu shift=%g t_max=%g curriculum=%d n=%d:%d p_w=%g progressive=%d lambda=%g tau_p=%g S_w=%ld fresh_camera=%d render_context=%g crop=%dx%d",
              o->objective == GV_OBJECTIVE_PRETRAIN ? "pretrain" : "finetune", o->steps, o->batch, o->lr, o->min_lr,
              o->warmup, o->cosine, o->weight_decay, o->clip_norm, (unsigned long long)o->seed, o->shift, o->t_max,
              o->curriculum, o->n_min, o->n_max, o->p_w, o->progressive, o->lambda, o->tau_p, gv_train_latent_warmup(o),
-             o->fresh_camera, o->render_context);
+             o->fresh_camera, o->render_context, o->crop_h, o->crop_w);
 }
 
 void gv_train_data_text(const gv_latent_set *data, const char *split, char *out, size_t size)
@@ -71,6 +71,7 @@ int gv_train_check_options(const gv_train_options *o)
         return gv_fail("training: t_max in (0, 1], shift > 0, p_w in (0, 1), n_max > n_min, lambda >= 0, tau_p > 0");
     if (!(o->render_context >= 0 && o->render_context <= 1))
         return gv_fail("training: the share of samples with renders in the context must be in [0, 1]");
+    if (o->crop_h < 0 || o->crop_w < 0) return gv_fail("training: the crop's rows and columns must not be negative");
     if (!o->out || !*o->out) return gv_fail("training: no output file");
     return 0;
 }
@@ -89,21 +90,22 @@ static uint64_t stream(uint64_t seed, long step, int clip, int purpose)
     return mix(mix(mix(seed) + (uint64_t)step) + (uint64_t)(clip * 2 + purpose));
 }
 
-/* The timestep of clip b of a step and its weights; eps gets its noise. */
+/* The timestep of clip b of a step, its weights, whether its context keeps the renders and
+ * the window it sees. Each draw comes after the ones that existed before it, so options
+ * left at their defaults give the draws of runs made before they were added. */
 void gv_train_draw(const gv_train_options *o, const gv_pretrain_schedule *grid, long step, int b, double w_cur,
-                        int64_t n, float *eps, gv_sample_draw *d)
+                   int tokens_h, int tokens_w, gv_sample_draw *d, gv_train_window *win)
 {
     gv_rng r;
     gv_rng_init(&r, stream(o->seed, step, b, 0));
     double u = gv_rng_uniform(&r);
-    gv_fill_normal(eps, n, stream(o->seed, step, b, 1), 0, 0.0f, 1.0f);
     d->w_cur = w_cur;
     if (o->objective == GV_OBJECTIVE_PRETRAIN) {
         int k = gv_pretrain_index(u);
         d->t = (float)grid->sigma[k];
         d->w_t = grid->weight[k];
         d->w_lat = 0;
-        d->renders = gv_rng_uniform(&r) < o->render_context; /* drawn after u: runs without renders keep their draws */
+        d->renders = gv_rng_uniform(&r) < o->render_context;
     } else {
         d->t = (float)(u * o->t_max); /* paper 3.4: t ~ U[0, 0.48] */
         d->w_t = 1.0;
@@ -112,4 +114,18 @@ void gv_train_draw(const gv_train_options *o, const gv_pretrain_schedule *grid, 
                        ? gv_progressive_weight(step, gv_train_latent_warmup(o), d->t, o->tau_p, o->lambda)
                        : 0.0;
     }
+    win->y = win->x = 0, win->h = tokens_h, win->w = tokens_w;
+    if (o->crop_h > 0 && o->crop_h < tokens_h) {
+        win->h = o->crop_h;
+        win->y = (int)(gv_rng_uniform(&r) * (tokens_h - o->crop_h + 1));
+    }
+    if (o->crop_w > 0 && o->crop_w < tokens_w) {
+        win->w = o->crop_w;
+        win->x = (int)(gv_rng_uniform(&r) * (tokens_w - o->crop_w + 1));
+    }
+}
+
+void gv_train_noise(const gv_train_options *o, long step, int b, int64_t n, float *eps)
+{
+    gv_fill_normal(eps, n, stream(o->seed, step, b, 1), 0, 0.0f, 1.0f);
 }

@@ -45,6 +45,7 @@ typedef struct {
     int *index;
     double *weight;
     float *eps;
+    gv_clip_latents crop;          /* the window of the current sample (--crop) */
     gv_graph g;
     FILE *log, *val_log;
 } loop_ctx;
@@ -83,6 +84,7 @@ static void ctx_free(loop_ctx *x)
     gv_data_order_free(&x->order);
     gv_graph_free(&x->g);
     free(x->difficulty), free(x->index), free(x->weight), free(x->eps);
+    gv_clip_latents_free(&x->crop);
     if (x->log) fclose(x->log);
     if (x->val_log) fclose(x->val_log);
 }
@@ -99,9 +101,17 @@ static int train_step(gv_dit *m, const gv_latent_set *data, loop_ctx *x, gv_trai
     gv_params_zero_grad(&m->params);
     for (int b = 0; b < o->batch; b++) {
         const gv_clip_latents *l = &data->clips[x->index[b]];
+        const int ph = m->cfg.dit.patch_size[1], pw = m->cfg.dit.patch_size[2];
         gv_sample_draw d;
         gv_sample_losses s;
-        gv_train_draw(o, &x->grid, st->step, b, x->weight[b], gv_clip_latents_z_count(l), x->eps, &d);
+        gv_train_window win;
+        gv_train_draw(o, &x->grid, st->step, b, x->weight[b], l->lh / ph, l->lw / pw, &d, &win);
+        if (win.h * ph < l->lh || win.w * pw < l->lw) {
+            if (gv_clip_latents_crop(l, win.y * ph, win.x * pw, win.h * ph, win.w * pw, &x->crop))
+                return gv_fail_context("step %ld (%s)", st->step + 1, data->names[x->index[b]]);
+            l = &x->crop;
+        }
+        gv_train_noise(o, st->step, b, gv_clip_latents_z_count(l), x->eps);
         if (gv_train_sample(m, &x->g, l, o->objective, &d, x->eps, 1.0 / o->batch, 1, &s))
             return gv_fail_context("step %ld (%s)", st->step + 1, data->names[x->index[b]]);
         mean->loss += s.loss / o->batch, mean->fm += s.fm / o->batch, mean->latent += s.latent / o->batch;

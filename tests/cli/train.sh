@@ -84,6 +84,19 @@ check "validation leaves the weights bit-exact" same_data ft.safetensors val.saf
 check "validation log: header and 3 rows at each of steps 0, 2, 4" test "$(wc -l <val.tsv)" -eq 10
 check "validation rows per n and all" test "$(cut -f2 val.tsv | sort | uniq -c | tr -s ' ' | tr '\n' ,)" = " 3 6, 3 8, 3 all, 1 n,"
 
+# Windows of the clips (tiny preset: a grid of 2x2 tokens): recorded, other weights, resumed
+# bit for bit; a window as large as the grid is the whole clip, the same weights.
+expect 2 "bad crop" -- "$G" train "${FT[@]}" --out x.safetensors --crop 2by2
+one_line "rows x columns"
+expect 0 "train on windows" -- "$G" train "${FT[@]}" --out crop.safetensors --crop 1x2
+check "crop recorded" grep -q "crop=1x2" <(meta crop.safetensors training)
+check "windows train other weights" differ ft.safetensors crop.safetensors
+expect 0 "train on windows, interrupted" -- "$G" train "${FT[@]}" --out crop2.safetensors --crop 1x2 --stop-after 1
+expect 0 "train on windows, resumed" -- "$G" train "${FT[@]}" --out crop2.safetensors --crop 1x2 --resume
+check "resumed training on windows is bit-exact" same_data crop.safetensors crop2.safetensors
+expect 0 "window of the whole grid" -- "$G" train "${FT[@]}" --out whole.safetensors --crop 2x5
+check "a window of the whole grid trains the weights of no window" same_data ft.safetensors whole.safetensors
+
 # Each ablation flag reaches the run and changes the trained weights.
 expect 0 "shuffle" -- "$G" train "${FT[@]}" --out shuffle.safetensors --no-curriculum
 check "curriculum off recorded" grep -q "curriculum=0" <(meta shuffle.safetensors training)
