@@ -9,6 +9,7 @@
 #include "test_restore_fixtures.h"
 #include "gaussvid/checkpoint.h"
 #include "gaussvid/train.h"
+#include "train/train_internal.h"
 
 static const char *tmp;
 static char data_dir[4096], vae_path[4200];
@@ -277,6 +278,30 @@ static void test_loss_decreases(const char *base)
     gv_latent_set_free(&set);
 }
 
+/* --relative-loss weights on hand-made clips of known identity loss: constant latent errors of
+ * 0.1 and 0.2 (identities 0.01 and 0.04) and none (floored at 1e-3 of the mean, 0.05 / 3). */
+static void test_relative_weights(void)
+{
+    enum { N = 24 };
+    gv_clip_latents clips[3];
+    float clean[3][N], corrupt[3][N];
+    const float err[3] = {0.1f, 0.2f, 0.0f};
+    for (int c = 0; c < 3; c++) {
+        memset(&clips[c], 0, sizeof clips[c]);
+        clips[c].batch = 1, clips[c].z_dim = 2, clips[c].latent_frames = 3, clips[c].lh = 2, clips[c].lw = 2;
+        for (int i = 0; i < N; i++) clean[c][i] = 0.5f * (float)(i % 5), corrupt[c][i] = clean[c][i] + (i % 2 ? err[c] : -err[c]);
+        clips[c].z_clean = clean[c], clips[c].z_corrupt = corrupt[c];
+    }
+    gv_latent_set set = {.count = 3, .clips = clips};
+    double *w = NULL;
+    CHECK(gv_train_relative_weights(&set, &w) == 0 && w);
+    double floor_id = 1e-3 * (0.01 + 0.04 + 0.0) / 3, inv[3] = {1 / 0.01, 1 / 0.04, 1 / floor_id};
+    double mean = (inv[0] + inv[1] + inv[2]) / 3;
+    for (int c = 0; c < 3; c++) CHECK_NEAR(w[c], inv[c] / mean, 1e-6 * inv[c] / mean);
+    CHECK_NEAR(w[0] / w[1], 4.0, 1e-5);
+    free(w);
+}
+
 static double max_abs(const gv_dit *m, const char *name)
 {
     const gv_param *p = gv_params_find(&m->params, name);
@@ -341,6 +366,7 @@ static void test_validation(const char *base)
     }
     for (int k = 0; k < v.groups; k++) {
         CHECK_NEAR(v.loss[k], v.identity[k], 1e-5 * v.identity[k]);
+        CHECK_NEAR(v.gain_db[k], 0, 1e-4); /* 10 log10(identity / loss) of the identity */
         from_groups += v.loss[k] * v.clips[k] / v.all_clips;
     }
     CHECK(v.n[0] == 6 && v.clips[0] == 2);
@@ -366,15 +392,16 @@ static void test_validation(const char *base)
     char line[256];
     int rows = 0, steps_ok = 1;
     long step;
-    double loss = 0, identity = 0;
-    CHECK(f && fgets(line, sizeof line, f) && !strcmp(line, "step\tn\tclips\tloss\tidentity\n"));
+    double loss = 0, identity = 0, gain = 0;
+    CHECK(f && fgets(line, sizeof line, f) && !strcmp(line, "step\tn\tclips\tloss\tidentity\tgain_db\n"));
     while (f && fgets(line, sizeof line, f)) {
         int n, clips;
-        if (sscanf(line, "%ld\t%d\t%d\t%lf\t%lf", &step, &n, &clips, &loss, &identity) == 5) {
+        if (sscanf(line, "%ld\t%d\t%d\t%lf\t%lf\t%lf", &step, &n, &clips, &loss, &identity, &gain) == 6) {
             steps_ok &= step == 2 * (rows / 2) && n == 6 && clips == 1; /* a row per n, then "all" */
         } else {
-            CHECK(sscanf(line, "%ld\tall\t%d\t%lf\t%lf", &step, &clips, &loss, &identity) == 4);
+            CHECK(sscanf(line, "%ld\tall\t%d\t%lf\t%lf\t%lf", &step, &clips, &loss, &identity, &gain) == 5);
         }
+        CHECK_NEAR(gain, 10 * log10(identity / loss), 1e-3); /* one clip: the mean is its own */
         if (rows == 1) CHECK_NEAR(loss, identity, 1e-5 * identity); /* step 0: the identity */
         rows++;
     }
@@ -518,6 +545,7 @@ int main(void)
     write_random_base(base);
     test_finetune_resume(base);
     test_loss_decreases(base);
+    test_relative_weights();
     test_base_start(base);
     test_validation(base);
     test_ablation_switches(base);

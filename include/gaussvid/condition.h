@@ -63,6 +63,8 @@ int gv_clip_latents_shape(const gv_vae *vae, const gv_model_config *cfg, const g
 int gv_clip_latents_alloc(gv_clip_latents *l, int with_plucker);
 int gv_clip_latents_plucker(const gv_clip *clip, int temporal_factor, gv_clip_latents *l);
 
+/* mean (z0* - z-hat)^2 over the clip: the loss of leaving its renders unchanged. */
+double gv_clip_latents_identity_loss(const gv_clip_latents *l);
 /* Latent rows [y, y + h) and columns [x, x + w) of every frame of src (latents and VACE
  * context) with the matching pixels of its Plücker field: the clip seen through a window
  * (train --crop; condition_crop.c). dst is zeroed or an earlier crop: its arrays are reused

@@ -140,6 +140,7 @@ typedef struct {
     int n_min, n_max;            /* delta(n) bounds (paper: 6, 26) */
     double p_w;                  /* curriculum warm-up fraction (paper: 0.05) */
     int progressive;             /* fine-tuning: progressive latent loss */
+    int relative_loss;           /* fine-tuning: each clip's loss divided by its identity loss (mean weight 1) */
     double lambda, tau_p;        /* paper: 0.1, 0.3 */
     long latent_warmup;          /* S_w; 0: S / 20 (the paper's 1000 of 20000 steps) */
     int fresh_camera;            /* fine-tuning: camera encoder from its initialisation, not the base's */
@@ -185,8 +186,9 @@ typedef struct {
     int n[GV_VAL_GROUPS], clips[GV_VAL_GROUPS];
     double loss[GV_VAL_GROUPS];  /* mean velocity MSE = restored latent MSE (one step eps - v) */
     double identity[GV_VAL_GROUPS]; /* the identity's: mean (z0* - z-hat)^2 */
+    double gain_db[GV_VAL_GROUPS];  /* mean over clips of 10 log10(identity / loss): > 0 restores */
     int all_clips;
-    double all_loss, all_identity;
+    double all_loss, all_identity, all_gain_db;
 } gv_validation;
 /* The fine-tuning loss of m on the clips of val at fixed draws (the same for every call and
  * every run), beside the identity's, per interval and over all clips. g is scratch. */

@@ -73,6 +73,7 @@ int cmd_train(int argc, char **argv)
         {"no-progressive-loss", GV_FLAG_BOOL, &no_progressive, NULL, "ablation: flow matching loss only", 0},
         {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's (the paper trains it from scratch)", 0},
         {"t-max", GV_FLAG_DOUBLE, &o.t_max, "T", "timesteps t ~ U[0, T] (default 0.48)", 0},
+        {"relative-loss", GV_FLAG_BOOL, &o.relative_loss, NULL, "weight each clip's loss by 1 / its identity loss (the loss of leaving its renders unchanged), mean weight 1", 0},
         {"crop", GV_FLAG_STRING, &crop, "RxC", "train each sample on a random window of R x C tokens of its clip (default: the whole clip)", 0},
         {"latent-warmup", GV_FLAG_INT, &s_w, "N", "S_w of the progressive loss (default S/20)", 0},
         {"p-w", GV_FLAG_DOUBLE, &o.p_w, "P", "curriculum warm-up fraction (default 0.05)", 0},

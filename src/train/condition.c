@@ -24,6 +24,17 @@ int64_t gv_clip_latents_plucker_count(const gv_clip_latents *l)
     return (int64_t)l->batch * 6 * l->plucker_frames * l->height * l->width;
 }
 
+double gv_clip_latents_identity_loss(const gv_clip_latents *l)
+{
+    int64_t n = gv_clip_latents_z_count(l);
+    double sum = 0;
+    for (int64_t i = 0; i < n; i++) {
+        double d = (double)l->z_clean[i] - l->z_corrupt[i];
+        sum += d * d;
+    }
+    return n ? sum / (double)n : 0;
+}
+
 void gv_clip_latents_free(gv_clip_latents *l)
 {
     if (!l) return;

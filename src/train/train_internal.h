@@ -26,4 +26,8 @@ void gv_train_draw(const gv_train_options *o, const gv_pretrain_schedule *grid, 
                    int tokens_h, int tokens_w, gv_sample_draw *d, gv_train_window *win);
 void gv_train_noise(const gv_train_options *o, long step, int b, int64_t n, float *eps);
 
+/* trainer.c: the per-clip weights of --relative-loss, 1 / identity loss normalised to mean 1
+ * (identities floored at 1e-3 of their mean); *out is malloc'd, data->count values. */
+int gv_train_relative_weights(const gv_latent_set *data, double **out);
+
 #endif

@@ -45,11 +45,11 @@ void gv_train_options_text(const gv_train_options *o, char *out, size_t size)
 {
     snprintf(out, size,
              "objective=%s steps=%ld batch=%d lr=%g min_lr=%g warmup=%ld cosine=%d weight_decay=%g clip_norm=%g "
-             "seed=%llu shift=%g t_max=%g curriculum=%d n=%d:%d p_w=%g progressive=%d lambda=%g tau_p=%g S_w=%ld fresh_camera=%d render_context=%g crop=%dx%d",
+             "seed=%llu shift=%g t_max=%g curriculum=%d n=%d:%d p_w=%g progressive=%d lambda=%g tau_p=%g S_w=%ld fresh_camera=%d render_context=%g crop=%dx%d relative_loss=%d",
              o->objective == GV_OBJECTIVE_PRETRAIN ? "pretrain" : "finetune", o->steps, o->batch, o->lr, o->min_lr,
              o->warmup, o->cosine, o->weight_decay, o->clip_norm, (unsigned long long)o->seed, o->shift, o->t_max,
              o->curriculum, o->n_min, o->n_max, o->p_w, o->progressive, o->lambda, o->tau_p, gv_train_latent_warmup(o),
-             o->fresh_camera, o->render_context, o->crop_h, o->crop_w);
+             o->fresh_camera, o->render_context, o->crop_h, o->crop_w, o->relative_loss);
 }
 
 void gv_train_data_text(const gv_latent_set *data, const char *split, char *out, size_t size)

@@ -3,6 +3,7 @@
  * objective over them, clips the gradient norm and takes one AdamW step. A step depends only on
  * its number, the data position and the weights and moments, all of which the checkpoints
  * store, so a resumed run takes exactly the steps an uninterrupted one would. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -42,6 +43,7 @@ typedef struct {
     gv_data_order order;
     gv_pretrain_schedule grid;
     double *difficulty;            /* per clip; NULL without curriculum */
+    double *relative;              /* per clip: the weight of --relative-loss; NULL without */
     int *index;
     double *weight;
     float *eps;
@@ -49,6 +51,23 @@ typedef struct {
     gv_graph g;
     FILE *log, *val_log;
 } loop_ctx;
+
+/* --relative-loss: clip i's loss weighted by 1 / identity_i, normalised to mean 1 over the
+ * clips, so that each clip counts by its loss relative to leaving its renders unchanged. A
+ * clip's PSNR change is about -10 log10 of that ratio, and evaluations average PSNR over
+ * clips: unweighted, the few clips with the largest errors would decide what is learned,
+ * and the clips already rendered well (small n) would count for nothing. Identities are
+ * floored at 1e-3 of their mean so that a clip rendered perfectly has a finite weight. */
+int gv_train_relative_weights(const gv_latent_set *data, double **out)
+{
+    double *w = malloc((size_t)data->count * sizeof *w), mean_id = 0, mean_w = 0;
+    if (!w) return gv_fail("training: out of memory");
+    for (int i = 0; i < data->count; i++) mean_id += (w[i] = gv_clip_latents_identity_loss(&data->clips[i])) / data->count;
+    for (int i = 0; i < data->count; i++) mean_w += (w[i] = 1.0 / fmax(w[i], 1e-3 * mean_id + 1e-30)) / data->count;
+    for (int i = 0; i < data->count; i++) w[i] /= mean_w;
+    *out = w;
+    return 0;
+}
 
 static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_options *o, int appending)
 {
@@ -66,6 +85,7 @@ static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_optio
     if (!x->eps || !x->index || !x->weight || (curriculum && !x->difficulty)) return gv_fail("training: out of memory");
     for (int i = 0; curriculum && i < data->count; i++)
         x->difficulty[i] = gv_curriculum_difficulty(data->clips[i].n, o->n_min, o->n_max);
+    if (o->objective == GV_OBJECTIVE_FINETUNE && o->relative_loss && gv_train_relative_weights(data, &x->relative)) return -1;
     if (o->log_path) {
         x->log = fopen(o->log_path, appending ? "a" : "w");
         if (!x->log) return gv_fail("%s: cannot open the log for writing", o->log_path);
@@ -74,7 +94,7 @@ static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_optio
     if (o->val && o->val_log) {
         x->val_log = fopen(o->val_log, appending ? "a" : "w");
         if (!x->val_log) return gv_fail("%s: cannot open the validation log for writing", o->val_log);
-        if (!appending) fprintf(x->val_log, "step\tn\tclips\tloss\tidentity\n");
+        if (!appending) fprintf(x->val_log, "step\tn\tclips\tloss\tidentity\tgain_db\n");
     }
     return 0;
 }
@@ -83,7 +103,7 @@ static void ctx_free(loop_ctx *x)
 {
     gv_data_order_free(&x->order);
     gv_graph_free(&x->g);
-    free(x->difficulty), free(x->index), free(x->weight), free(x->eps);
+    free(x->difficulty), free(x->relative), free(x->index), free(x->weight), free(x->eps);
     gv_clip_latents_free(&x->crop);
     if (x->log) fclose(x->log);
     if (x->val_log) fclose(x->val_log);
@@ -112,7 +132,8 @@ static int train_step(gv_dit *m, const gv_latent_set *data, loop_ctx *x, gv_trai
             l = &x->crop;
         }
         gv_train_noise(o, st->step, b, gv_clip_latents_z_count(l), x->eps);
-        if (gv_train_sample(m, &x->g, l, o->objective, &d, x->eps, 1.0 / o->batch, 1, &s))
+        double scale = (x->relative ? x->relative[x->index[b]] : 1.0) / o->batch;
+        if (gv_train_sample(m, &x->g, l, o->objective, &d, x->eps, scale, 1, &s))
             return gv_fail_context("step %ld (%s)", st->step + 1, data->names[x->index[b]]);
         mean->loss += s.loss / o->batch, mean->fm += s.fm / o->batch, mean->latent += s.latent / o->batch;
     }
@@ -144,17 +165,20 @@ static int validate(gv_dit *m, loop_ctx *x, const gv_train_state *st, gv_progres
 {
     gv_validation v;
     if (gv_train_validate(m, &x->g, x->o->val, x->o->t_max, &v)) return gv_fail_context("step %ld", st->step);
-    char per_n[256] = "";
+    char per_n[512] = "";
     size_t used = 0;
     for (int k = 0; k < v.groups && used < sizeof per_n; k++)
-        used += (size_t)snprintf(per_n + used, sizeof per_n - used, "%sn=%d %.5f/%.5f", k ? ", " : "", v.n[k],
-                                 v.loss[k], v.identity[k]);
-    gv_progress_note(bar, "validation at step %ld: loss %.5f, identity %.5f (%+.1f %%); %s", st->step, v.all_loss,
-                     v.all_identity, v.all_identity > 0 ? 100 * (v.all_loss / v.all_identity - 1) : 0.0, per_n);
+        used += (size_t)snprintf(per_n + used, sizeof per_n - used, "%sn=%d %.5f/%.5f (%+.3f dB)", k ? ", " : "",
+                                 v.n[k], v.loss[k], v.identity[k], v.gain_db[k]);
+    gv_progress_note(bar, "validation at step %ld: loss %.5f, identity %.5f (%+.1f %%), latent gain %+.3f dB; %s",
+                     st->step, v.all_loss, v.all_identity,
+                     v.all_identity > 0 ? 100 * (v.all_loss / v.all_identity - 1) : 0.0, v.all_gain_db, per_n);
     if (x->val_log) {
         for (int k = 0; k < v.groups; k++)
-            fprintf(x->val_log, "%ld\t%d\t%d\t%.6f\t%.6f\n", st->step, v.n[k], v.clips[k], v.loss[k], v.identity[k]);
-        fprintf(x->val_log, "%ld\tall\t%d\t%.6f\t%.6f\n", st->step, v.all_clips, v.all_loss, v.all_identity);
+            fprintf(x->val_log, "%ld\t%d\t%d\t%.6f\t%.6f\t%.4f\n", st->step, v.n[k], v.clips[k], v.loss[k],
+                    v.identity[k], v.gain_db[k]);
+        fprintf(x->val_log, "%ld\tall\t%d\t%.6f\t%.6f\t%.4f\n", st->step, v.all_clips, v.all_loss, v.all_identity,
+                v.all_gain_db);
         fflush(x->val_log);
     }
     return 0;

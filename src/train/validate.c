@@ -7,7 +7,12 @@
  * whose validation loss is not below that number restores nothing on unseen clips, whatever
  * its training loss says. The draws are fixed (GV_VAL_TIMES evenly spaced timesteps in
  * [0, t_max] and noise from a seed of their own), so every evaluation of a run, and every run,
- * is measured on the same samples; nothing here touches the training state. */
+ * is measured on the same samples; nothing here touches the training state.
+ *
+ * Pooled losses are dominated by the clips with the largest errors, while the mean PSNR of an
+ * evaluation weighs every clip alike: so each clip's latent "gain" 10 log10(identity / loss)
+ * is averaged too, the latent analogue of the mean PSNR change (negative: damage). */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,17 +31,6 @@ static int group_of(gv_validation *out, int n)
     if (out->groups == GV_VAL_GROUPS) return -1;
     out->n[out->groups] = n;
     return out->groups++;
-}
-
-static double identity_loss(const gv_clip_latents *l)
-{
-    int64_t n = gv_clip_latents_z_count(l);
-    double sum = 0;
-    for (int64_t i = 0; i < n; i++) {
-        double d = (double)l->z_clean[i] - l->z_corrupt[i];
-        sum += d * d;
-    }
-    return n ? sum / (double)n : 0;
 }
 
 int gv_train_validate(gv_dit *m, gv_graph *g, const gv_latent_set *val, double t_max, gv_validation *out)
@@ -63,14 +57,15 @@ int gv_train_validate(gv_dit *m, gv_graph *g, const gv_latent_set *val, double t
             rc = gv_fail("validation: clips of more than %d intervals n", GV_VAL_GROUPS);
             break;
         }
-        double id = identity_loss(l);
-        out->clips[k]++, out->loss[k] += loss, out->identity[k] += id;
-        out->all_loss += loss, out->all_identity += id;
+        double id = gv_clip_latents_identity_loss(l), gain = loss > 0 && id > 0 ? 10 * log10(id / loss) : 0;
+        out->clips[k]++, out->loss[k] += loss, out->identity[k] += id, out->gain_db[k] += gain;
+        out->all_loss += loss, out->all_identity += id, out->all_gain_db += gain;
     }
     free(eps);
     if (rc) return -1;
-    for (int k = 0; k < out->groups; k++) out->loss[k] /= out->clips[k], out->identity[k] /= out->clips[k];
+    for (int k = 0; k < out->groups; k++)
+        out->loss[k] /= out->clips[k], out->identity[k] /= out->clips[k], out->gain_db[k] /= out->clips[k];
     out->all_clips = val->count;
-    if (val->count) out->all_loss /= val->count, out->all_identity /= val->count;
+    if (val->count) out->all_loss /= val->count, out->all_identity /= val->count, out->all_gain_db /= val->count;
     return 0;
 }

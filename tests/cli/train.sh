@@ -97,6 +97,11 @@ check "resumed training on windows is bit-exact" same_data crop.safetensors crop
 expect 0 "window of the whole grid" -- "$G" train "${FT[@]}" --out whole.safetensors --crop 2x5
 check "a window of the whole grid trains the weights of no window" same_data ft.safetensors whole.safetensors
 
+# Each clip's loss relative to its identity's: recorded, other weights.
+expect 0 "relative loss" -- "$G" train "${FT[@]}" --out rel.safetensors --relative-loss
+check "relative loss recorded" grep -q "relative_loss=1" <(meta rel.safetensors training)
+check "relative loss trains other weights" differ ft.safetensors rel.safetensors
+
 # Each ablation flag reaches the run and changes the trained weights.
 expect 0 "shuffle" -- "$G" train "${FT[@]}" --out shuffle.safetensors --no-curriculum
 check "curriculum off recorded" grep -q "curriculum=0" <(meta shuffle.safetensors training)
