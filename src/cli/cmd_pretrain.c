@@ -12,7 +12,7 @@ int cmd_pretrain(int argc, char **argv)
 {
     gv_train_options o;
     gv_train_defaults(&o, GV_OBJECTIVE_PRETRAIN);
-    const char *clips = NULL, *config = "small", *vae = NULL, *variant = NULL, *out = NULL, *log = NULL;
+    const char *clips = NULL, *config = "small", *vae = NULL, *variant = NULL, *out = NULL, *log = NULL, *crop = NULL;
     int steps = (int)o.steps, warmup = (int)o.warmup, seed = 0, ckpt = (int)o.checkpoint_every, stop_after = 0;
     const gv_flag flags[] = {
         {"clips", GV_FLAG_STRING, &clips, "DIR", "dataset folder (manifest.json); its train split is used", 1},
@@ -28,6 +28,7 @@ int cmd_pretrain(int argc, char **argv)
         {"shift", GV_FLAG_DOUBLE, &o.shift, "S", "shift of the timestep grid (default 5, as the reference; 1 = none)", 0},
         {"render-context", GV_FLAG_DOUBLE, &o.render_context, "P",
          "share of samples whose VACE context also holds the clip's renders (default 0)", 0},
+        {"crop", GV_FLAG_STRING, &crop, "RxC", "train each sample on a random window of R x C tokens of its clip (default: the whole clip)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "random seed: initial weights, data order, timesteps, noise (default 0)", 0},
         {"checkpoint-every", GV_FLAG_INT, &ckpt, "K", "steps between checkpoints FILE.ckpt (default 250)", 0},
         {"resume", GV_FLAG_BOOL, &o.resume, NULL, "continue from FILE.ckpt when it exists (bit-exact)", 0},
@@ -55,6 +56,7 @@ int cmd_pretrain(int argc, char **argv)
                         "and --stop-after not negative\n");
         return 2;
     }
+    if (crop && gv_parse_crop("pretrain", crop, &o.crop_h, &o.crop_w)) return 2;
     if (!(o.render_context >= 0 && o.render_context <= 1)) {
         fprintf(stderr, "gaussvid pretrain: --render-context is a share of the samples, in [0, 1]\n");
         return 2;

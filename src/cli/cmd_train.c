@@ -106,11 +106,7 @@ int cmd_train(int argc, char **argv)
                         "--stop-after, --latent-warmup and --val-every not negative\n");
         return 2;
     }
-    char tail;
-    if (crop && (sscanf(crop, "%dx%d%c", &o.crop_h, &o.crop_w, &tail) != 2 || o.crop_h < 1 || o.crop_w < 1)) {
-        fprintf(stderr, "gaussvid train: --crop %s: expected rows x columns of tokens, e.g. 6x8\n", crop);
-        return 2;
-    }
+    if (crop && gv_parse_crop("train", crop, &o.crop_h, &o.crop_w)) return 2;
     if ((val_every || val_log) && !val_clips) {
         fprintf(stderr, "gaussvid train: --val-every and --val-log need --val-clips\n");
         return 2;

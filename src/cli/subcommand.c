@@ -27,3 +27,11 @@ int gv_report_failure(void)
     fprintf(stderr, "gaussvid: %s\n", gv_last_error());
     return 1;
 }
+
+int gv_parse_crop(const char *command, const char *text, int *rows, int *cols)
+{
+    char tail;
+    if (sscanf(text, "%dx%d%c", rows, cols, &tail) == 2 && *rows >= 1 && *cols >= 1) return 0;
+    fprintf(stderr, "gaussvid %s: --crop %s: expected rows x columns of tokens, e.g. 6x8\n", command, text);
+    return 2;
+}

@@ -63,6 +63,11 @@ one_line "render-context"
 expect 0 "pretrain with renders in the context" -- "$G" pretrain "${PRE[@]}" --out rc.safetensors --render-context 1
 check "render context recorded" grep -q "render_context=1" <(meta rc.safetensors training)
 check "renders in the context train other weights" differ base.safetensors rc.safetensors
+expect 0 "pretrain on windows" -- "$G" pretrain "${PRE[@]}" --out pcrop.safetensors --crop 1x1
+check "pretraining crop recorded" grep -q "crop=1x1" <(meta pcrop.safetensors training)
+check "pretraining on windows trains other weights" differ base.safetensors pcrop.safetensors
+expect 2 "pretrain bad crop" -- "$G" pretrain "${PRE[@]}" --out x.safetensors --crop 0x2
+one_line "rows x columns"
 
 # Fine-tuning: straight and resumed, with the curriculum and the progressive loss on (S_w 1).
 FT=(--clips D --base base.safetensors --steps 4 --batch 2 --latent-warmup 1 --checkpoint-every 2 --quiet)
