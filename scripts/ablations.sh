@@ -14,6 +14,8 @@
 #   METHOD     the method's own variant flags, given to every run (default "skip", as
 #              train_small.sh fine-tunes; "" for the config's variant)
 #   ONLY       run only these tables: camera strategy anchors adaptation (default all)
+#   TRAIN_FLAGS  more `gaussvid train` flags for every variant (e.g. "--crop 5x8 --t-max 0.1")
+#   EVAL_FLAGS   more `gaussvid eval` flags for every evaluation (e.g. "--samples 1")
 #
 # Outputs in WORK_DIR/ablations: <variant>.safetensors, <variant>.md and .json (gaussvid eval),
 # times.tsv (training seconds per variant) and ablations.md, the tables. Rows:
@@ -32,6 +34,8 @@ BATCH=${BATCH:-2}
 METHOD=${METHOD-skip}
 N_MAX=${N_MAX:-28} # the curriculum's n_max, as train_small.sh fine-tunes
 ONLY=${ONLY:-camera strategy anchors adaptation}
+read -r -a TRAIN_EXTRA <<< "${TRAIN_FLAGS:-}"
+read -r -a EVAL_EXTRA <<< "${EVAL_FLAGS:-}"
 A="$W/ablations"
 
 [ -x "$G" ] || { echo "ablations.sh: $G: not built (run make)" >&2; exit 1; }
@@ -53,7 +57,7 @@ variant() {
   echo "== $name (variant: ${full:-as configured}; flags: ${*:-none})"
   if [ ! -e "$A/$name.safetensors" ]; then
     local start=$SECONDS
-    "$G" train --clips "$W/data" --base "$W/base.safetensors" ${full:+--variant "$full"} --n-max "$N_MAX" "$@" \
+    "$G" train --clips "$W/data" --base "$W/base.safetensors" ${full:+--variant "$full"} --n-max "$N_MAX" "${TRAIN_EXTRA[@]}" "$@" \
       --steps "$STEPS" --batch "$BATCH" --resume --log "$A/$name.tsv" --out "$A/$name.safetensors"
     printf '%s\t%d\n' "$name" $((SECONDS - start)) >> "$A/times.tsv"
   fi
@@ -62,7 +66,7 @@ variant() {
 
 # evaluate NAME CHECKPOINT: gaussvid eval on the held-out split into NAME.md and NAME.json.
 evaluate() {
-  "$G" eval --ckpt "$2" --clips "$W/data" --split eval --json "$A/$1.json.tmp" > "$A/$1.md"
+  "$G" eval --ckpt "$2" --clips "$W/data" --split eval "${EVAL_EXTRA[@]}" --json "$A/$1.json.tmp" > "$A/$1.md"
   mv "$A/$1.json.tmp" "$A/$1.json"
 }
 
@@ -108,7 +112,8 @@ wants adaptation && {
 }
 
 {
-  echo "# Ablations ($STEPS fine-tuning steps each, batch $BATCH, method variant: ${METHOD:-as configured})"
+  echo "# Ablations ($STEPS fine-tuning steps each, batch $BATCH, method variant: ${METHOD:-as configured};"
+  echo "train flags: ${TRAIN_FLAGS:-none}; eval flags: ${EVAL_FLAGS:-none})"
   echo
   echo "Held-out clips of $W/data (split eval); PSNR change = restored - baseline (dB), mean"
   echo "over frames; worst n = the lowest per-interval change. From scripts/ablations.sh."

@@ -19,7 +19,7 @@ void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
         {"t0", GV_FLAG_DOUBLE, &c->t0, "T", "the first time the network sees, in (0, 1) (default: the sampler's)", 0},
         {"steps", GV_FLAG_INT, &c->steps, "N", "network evaluations in time (iterate, euler)", 0},
         {"shift", GV_FLAG_DOUBLE, &c->shift, "S", "shift of the time grid (default: the sampler's)", 0},
-        {"samples", GV_FLAG_INT, &c->samples, "K", "noise draws averaged per evaluation (onestep, iterate; default 1)", 0},
+        {"samples", GV_FLAG_INT, &c->samples, "K", "noise draws averaged per evaluation (onestep, iterate; default 8 for onestep, 1 for iterate)", 0},
         {"blend", GV_FLAG_DOUBLE, &c->blend, "B",
          "fraction of the correction applied, in (0, 1]: z = z-hat + B (estimate - z-hat) (onestep, iterate; default 1)", 0},
         {"seed", GV_FLAG_INT, &c->seed, "S", "noise seed (default 0); each clip's stream also depends on its file name", 0},

@@ -31,6 +31,20 @@ check_rc "second run" $?
 check "second run skips every variant" test "$(grep -c 'evaluated, skipped' "$T/out")" -eq 12
 check "nothing trained again" test "$(wc -l <"$T/w/ablations/times.tsv")" -eq 11
 
+# TRAIN_FLAGS and EVAL_FLAGS reach every command: a recipe folder without ablations, first
+# with a bad train flag (nothing is trained), then with ours trained and a bad eval flag.
+mkdir -p "$T/w2/ablations"
+ln -s "$T/w/data" "$T/w2/data"
+ln -s "$T/w/base.safetensors" "$T/w2/base.safetensors"
+TRAIN_FLAGS="--crop 0x3" bash "$SCRIPTS/ablations.sh" "$T/w2" >"$T/out" 2>"$T/err"
+check_rc "a bad train flag fails" $(($? != 0 ? 0 : 1))
+check "the train flag is passed" grep -q -- "--crop 0x3: expected rows x columns" "$T/err"
+cp "$T/w/ablations/ours.safetensors" "$T/w2/ablations/"
+EVAL_FLAGS="--sampler nosuch" bash "$SCRIPTS/ablations.sh" "$T/w2" >"$T/out" 2>"$T/err"
+check_rc "a bad eval flag fails" $(($? != 0 ? 0 : 1))
+check "the eval flag is passed" grep -q "sampler 'nosuch'" "$T/err"
+check "no evaluation left behind" test ! -e "$T/w2/ablations/ours.json"
+
 mkdir -p "$T/empty"
 bash "$SCRIPTS/ablations.sh" "$T/empty" >"$T/out" 2>"$T/err"
 check_rc "folder without a recipe exits 1" $(($? == 1 ? 0 : 1))
