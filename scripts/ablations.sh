@@ -13,7 +13,8 @@
 #   BATCH      clips per step (default 2; QUICK=1: 1)
 #   METHOD     the method's own variant flags, given to every run (default "skip", as
 #              train_small.sh fine-tunes; "" for the config's variant)
-#   ONLY       run only these tables: camera strategy anchors adaptation (default all)
+#   ONLY       run only these tables: camera strategy anchors adaptation (default all); the
+#              tables written hold every variant evaluated so far, the others "not run"
 #   TRAIN_FLAGS  more `gaussvid train` flags for every variant (e.g. "--crop 5x8 --t-max 0.1")
 #   EVAL_FLAGS   more `gaussvid eval` flags for every evaluation (e.g. "--samples 1")
 #
@@ -34,6 +35,12 @@ BATCH=${BATCH:-2}
 METHOD=${METHOD-skip}
 N_MAX=${N_MAX:-28} # the curriculum's n_max, as train_small.sh fine-tunes
 ONLY=${ONLY:-camera strategy anchors adaptation}
+for t in $ONLY; do
+  case $t in
+    camera | strategy | anchors | adaptation) ;;
+    *) echo "ablations.sh: ONLY: '$t' is not a table (camera, strategy, anchors, adaptation)" >&2; exit 1 ;;
+  esac
+done
 read -r -a TRAIN_EXTRA <<< "${TRAIN_FLAGS:-}"
 read -r -a EVAL_EXTRA <<< "${EVAL_FLAGS:-}"
 A="$W/ablations"
@@ -70,8 +77,13 @@ evaluate() {
   mv "$A/$1.json.tmp" "$A/$1.json"
 }
 
-# row LABEL NAME: one table row from NAME.md's mean line and its worst per-n change.
+# row LABEL NAME: one table row from NAME.md's mean line and its worst per-n change; "not run"
+# while NAME has no evaluation (NAME.json is written last, when NAME.md is complete).
 row() {
+  if [ ! -e "$A/$2.json" ]; then
+    echo "| $1 | not run | | | |"
+    return
+  fi
   awk -v label="$1" -F'|' '
     $2 ~ /\*\*mean\*\*/ { b = $4; bs = $5; r = $6; rs = $7; d = $8; next }
     $2 ~ /^ *[0-9]+ *$/ { c = $8 + 0; if (worst == "" || c < worst) worst = c }
@@ -79,12 +91,19 @@ row() {
           printf "| %s | %s / %s | %s / %s | %s | %+.2f |\n", label, b, bs, r, rs, d, worst }' "$A/$2.md"
 }
 
+# table TITLE LABEL NAME [LABEL NAME]...: the table, with every variant evaluated so far, so
+# that runs of different ONLY sets add up to the same ablations.md.
 table() {
   echo
   echo "### $1"
   echo
   echo "| variant | baseline PSNR / SSIM | restored PSNR / SSIM | PSNR change | worst n |"
   echo "|---|---|---|---|---|"
+  shift
+  while [ $# -gt 0 ]; do
+    row "$1" "$2"
+    shift 2
+  done
 }
 
 wants() { [[ " $ONLY " == *" $1 "* ]]; }
@@ -117,13 +136,12 @@ wants adaptation && {
   echo
   echo "Held-out clips of $W/data (split eval); PSNR change = restored - baseline (dB), mean"
   echo "over frames; worst n = the lowest per-interval change. From scripts/ablations.sh."
-  wants camera && { table "Camera injection"; row "none" camera-none; row "early fusion" camera-early
-                    row "monolithic dual stream" camera-monolithic; row "decomposed (ours)" ours; }
-  wants strategy && { table "Training strategy"; row "shuffle" shuffle; row "+ curriculum" curriculum
-                      row "+ progressive loss" progressive; row "both (ours)" ours; }
-  wants anchors && { table "Anchors"; row "none" anchors-none; row "first" anchors-first; row "both (ours)" ours; }
-  wants adaptation && { table "Adaptation"; row "zero-shot base" zero-shot; row "vanilla LoRA" vanilla-lora
-                        row "per-frame restorer" per-frame; row "ours" ours; }
+  table "Camera injection" "none" camera-none "early fusion" camera-early \
+        "monolithic dual stream" camera-monolithic "decomposed (ours)" ours
+  table "Training strategy" "shuffle" shuffle "+ curriculum" curriculum "+ progressive loss" progressive \
+        "both (ours)" ours
+  table "Anchors" "none" anchors-none "first" anchors-first "both (ours)" ours
+  table "Adaptation" "zero-shot base" zero-shot "vanilla LoRA" vanilla-lora "per-frame restorer" per-frame "ours" ours
 } > "$A/ablations.md.tmp"
 mv "$A/ablations.md.tmp" "$A/ablations.md"
 cat "$A/ablations.md"
