@@ -34,12 +34,10 @@ STEPS=${STEPS:-1500}
 BATCH=${BATCH:-2}
 METHOD=${METHOD-skip}
 N_MAX=${N_MAX:-28} # the curriculum's n_max, as train_small.sh fine-tunes
-ONLY=${ONLY:-camera strategy anchors adaptation}
+TABLES="camera strategy anchors adaptation"
+ONLY=${ONLY:-$TABLES}
 for t in $ONLY; do
-  case $t in
-    camera | strategy | anchors | adaptation) ;;
-    *) echo "ablations.sh: ONLY: '$t' is not a table (camera, strategy, anchors, adaptation)" >&2; exit 1 ;;
-  esac
+  [[ " $TABLES " == *" $t "* ]] || { echo "ablations.sh: ONLY: '$t' is not a table ($TABLES)" >&2; exit 1; }
 done
 read -r -a TRAIN_EXTRA <<< "${TRAIN_FLAGS:-}"
 read -r -a EVAL_EXTRA <<< "${EVAL_FLAGS:-}"

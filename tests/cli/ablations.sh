@@ -31,21 +31,27 @@ check_rc "second run" $?
 check "second run skips every variant" test "$(grep -c 'evaluated, skipped' "$T/out")" -eq 12
 check "nothing trained again" test "$(wc -l <"$T/w/ablations/times.tsv")" -eq 11
 
+# recipe_folder DIR: a recipe folder with the quick recipe's data and base and no ablations.
+recipe_folder() {
+    mkdir -p "$1/ablations"
+    ln -s "$T/w/data" "$1/data"
+    ln -s "$T/w/base.safetensors" "$1/base.safetensors"
+}
+NUMBERS='^\| [^|]+ \| [0-9.]+ / [0-9.]+ \|' # a table row with numbers
+
 # The tables hold every variant evaluated so far, whatever ONLY asks to run: one table's run
 # on the complete folder keeps all four, and a folder with only the camera variants gives the
 # other tables' rows as "not run".
 ONLY=camera bash "$SCRIPTS/ablations.sh" "$T/w" >"$T/out" 2>"$T/err"
 check_rc "ONLY=camera on the complete folder" $?
-check "ONLY=camera keeps the four tables" test "$(grep -cE '^\| [^|]+ \| [0-9.]+ / [0-9.]+ \|' "$M")" -eq 15
-mkdir -p "$T/w3/ablations"
-ln -s "$T/w/data" "$T/w3/data"
-ln -s "$T/w/base.safetensors" "$T/w3/base.safetensors"
+check "ONLY=camera keeps the four tables" test "$(grep -cE "$NUMBERS" "$M")" -eq 15
+recipe_folder "$T/w3"
 for v in ours camera-none camera-early camera-monolithic; do cp "$T/w/ablations/$v".{safetensors,md,json} "$T/w3/ablations/"; done
 ONLY=camera bash "$SCRIPTS/ablations.sh" "$T/w3" >"$T/out" 2>"$T/err"
 check_rc "ONLY=camera with the camera variants only" $?
 check "nothing trained there" test ! -e "$T/w3/ablations/times.tsv"
 check "four tables there" test "$(grep -c '^### ' "$T/w3/ablations/ablations.md")" -eq 4
-check "seven rows with numbers there" test "$(grep -cE '^\| [^|]+ \| [0-9.]+ / [0-9.]+ \|' "$T/w3/ablations/ablations.md")" -eq 7
+check "seven rows with numbers there" test "$(grep -cE "$NUMBERS" "$T/w3/ablations/ablations.md")" -eq 7
 check "eight rows not run there" test "$(grep -c '| not run |' "$T/w3/ablations/ablations.md")" -eq 8
 ONLY="camera nosuch" bash "$SCRIPTS/ablations.sh" "$T/w3" >"$T/out" 2>"$T/err"
 check_rc "an unknown table exits 1" $(($? == 1 ? 0 : 1))
@@ -53,9 +59,7 @@ one_line "'nosuch' is not a table"
 
 # TRAIN_FLAGS and EVAL_FLAGS reach every command: a recipe folder without ablations, first
 # with a bad train flag (nothing is trained), then with ours trained and a bad eval flag.
-mkdir -p "$T/w2/ablations"
-ln -s "$T/w/data" "$T/w2/data"
-ln -s "$T/w/base.safetensors" "$T/w2/base.safetensors"
+recipe_folder "$T/w2"
 TRAIN_FLAGS="--crop 0x3" bash "$SCRIPTS/ablations.sh" "$T/w2" >"$T/out" 2>"$T/err"
 check_rc "a bad train flag fails" $(($? != 0 ? 0 : 1))
 check "the train flag is passed" grep -q -- "--crop 0x3: expected rows x columns" "$T/err"
