@@ -134,6 +134,7 @@ static void test_training_converges(const tiny_scene *s)
 {
     gv_splat_train_options o;
     short_options(&o, 200);
+    o.densify_mode = GV_DENSIFY_REFERENCE;
     gv_splat_trainer t;
     CHECK(gv_splat_trainer_init(&t, &o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N,
                                 s->points, NULL) == 0);
@@ -171,10 +172,45 @@ static void test_training_converges(const tiny_scene *s)
     gv_splat_trainer_free(&t);
 }
 
-static void test_deterministic(const tiny_scene *s)
+/* MCMC: the loss falls, the count grows to the budget and never past it (by default a
+ * tenth of the 6 x 48 x 32 training pixels, 921; the test sets 45), Adam steps every
+ * iteration but the last, and every gradient is consumed (the regularisers give every row
+ * one). Relocation itself is tested in test_splat_mcmc.c. */
+static void test_training_mcmc(const tiny_scene *s)
+{
+    gv_splat_train_options o;
+    short_options(&o, 200);
+    CHECK(o.densify_mode == GV_DENSIFY_MCMC); /* the default */
+    gv_splat_trainer t;
+    CHECK(gv_splat_trainer_init(&t, &o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N,
+                                s->points, NULL) == 0);
+    CHECK(t.opt.mcmc.cap == (int)(0.1 * VIEWS * WIDTH * HEIGHT));
+    t.opt.mcmc.cap = 45; /* small, so that the run reaches it (5 refinements of +2) */
+    double before = train_psnr(&t.params, s), first_loss = 0;
+    int ok = 0, gradient_clear = 1, within_budget = 1;
+    for (int it = 1; it <= o.iterations && ok == 0; it++) {
+        ok = gv_splat_trainer_step(&t);
+        if (it == 1) first_loss = t.loss;
+        gradient_clear &= gradient_is_zero(&t.grad);
+        within_budget &= t.params.n <= 45;
+    }
+    CHECK(ok == 0 && gradient_clear && within_budget);
+    double after = train_psnr(&t.params, s);
+    printf("tiny scene, MCMC: training-view PSNR %.2f -> %.2f dB, loss %.4f -> %.4f, %d "
+           "Gaussians (%ld relocated, %ld added)\n", before, after, first_loss, t.ema_loss,
+           t.params.n, t.relocated, t.added);
+    CHECK(after > before + 7);
+    CHECK(t.params.n == 45 && t.added == 5);
+    CHECK(t.adam.step[GV_ADAM_MEANS] == o.iterations - 1);
+    CHECK(t.adam.m.n == t.params.n && t.grad.n == t.params.n);
+    gv_splat_trainer_free(&t);
+}
+
+static void test_deterministic(const tiny_scene *s, gv_splat_densify_mode mode)
 {
     gv_splat_train_options o;
     short_options(&o, 45); /* past the first densification (25) */
+    o.densify_mode = mode;
     o.background = GV_BG_RANDOM;
     o.sparse_adam = 1;
     gv_gaussians a[2];
@@ -235,8 +271,10 @@ int main(void)
     int threads = omp_get_max_threads();
     omp_set_num_threads(1);
     test_training_converges(&s);
+    test_training_mcmc(&s);
     omp_set_num_threads(threads < 2 ? 2 : threads);
-    test_deterministic(&s);
+    test_deterministic(&s, GV_DENSIFY_REFERENCE);
+    test_deterministic(&s, GV_DENSIFY_MCMC);
     test_random_init(&s);
     test_bad_inputs(&s);
     for (int v = 0; v < VIEWS; v++) gv_image_free(&s.images[v]);

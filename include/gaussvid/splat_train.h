@@ -115,6 +115,8 @@ typedef struct {
     int prune_big;           /* also prune max scale > 0.1 x extent (after the first reset) */
     int max_screen_size;     /* prune max radius > this (pixels); 0 = off, as the reference
                               * effectively runs (its statistic is zeroed before the test) */
+    int max_gaussians;       /* budget: clone or split only the largest statistics that keep
+                              * the count at or below this; 0 = no budget (the reference) */
 } gv_splat_densify_params;
 
 typedef struct { int cloned, split, pruned; } gv_splat_densify_counts;
@@ -136,6 +138,38 @@ int gv_splat_densify_and_prune(gv_gaussians *g, gv_splat_adam *adam,
 void gv_splat_reset_opacity(gv_gaussians *g, gv_splat_adam *adam);
 void gv_splat_densify_stats_free(gv_splat_densify_stats *s);
 
+/* ---- mcmc.c -----------------------------------------------------------------------------
+ * Density control as MCMC (Kheradmand et al. 2024; gsplat's MCMCStrategy): a budget of
+ * Gaussians, dead ones relocated onto live ones, growth by a share of the count, noise on
+ * the positions of transparent ones, L1 regularisers on opacity and scale. */
+typedef struct {
+    int cap;                 /* the budget; 0 = no budget */
+    double growth;           /* 0.05: each refinement adds this share of the count */
+    double min_opacity;      /* 0.005: at or below, a Gaussian is dead and relocated */
+    double noise_lr;         /* 5e5: noise scale, times the position learning rate */
+    double opacity_reg;      /* 0.01: loss + opacity_reg mean(opacity) */
+    double scale_reg;        /* 0.01: loss + scale_reg mean(scale) */
+} gv_splat_mcmc_params;
+
+void gv_splat_mcmc_defaults(gv_splat_mcmc_params *p);
+/* Paper eq. 9: the opacity and the scale factor that let n copies of a Gaussian of the
+ * given opacity render like it (n is clamped to 1..51; n = 1 gives it back unchanged). */
+void gv_splat_mcmc_share(double opacity, int n, double *new_opacity, double *scale_factor);
+/* Moves every Gaussian with opacity <= min_opacity onto a live one drawn in proportion to
+ * opacity, sharing the drawn one's contribution; the touched rows' moments start at zero. */
+int gv_splat_mcmc_relocate(gv_gaussians *g, gv_splat_adam *adam, const gv_splat_mcmc_params *p,
+                           gv_rng *rng, int *relocated);
+/* Adds min(growth x count, cap - count) Gaussians the same way (new rows at the end). */
+int gv_splat_mcmc_grow(gv_gaussians *g, gv_splat_adam *adam, const gv_splat_mcmc_params *p,
+                       gv_rng *rng, int *added);
+/* Paper eq. 10: means += Sigma eps op_sigmoid(1 - opacity) noise_lr means_lr, eps ~ N(0, I)
+ * drawn from (seed, 3 i + axis): the same whatever the thread count. */
+void gv_splat_mcmc_noise(gv_gaussians *g, const gv_splat_mcmc_params *p, double means_lr,
+                         uint64_t seed);
+/* ADDS the regularisers' gradients to every row of grad (opacity logits, log-scales). */
+void gv_splat_mcmc_regularize(const gv_gaussians *g, const gv_splat_mcmc_params *p,
+                              gv_gaussians *grad);
+
 /* ---- train.c ----------------------------------------------------------------------------
  * The loop of 3DGS train.py (section 14.1). Iteration numbers start at 1. */
 typedef enum { GV_BG_BLACK, GV_BG_WHITE, GV_BG_RANDOM } gv_splat_background;
@@ -148,6 +182,13 @@ typedef struct {
     int opacity_reset_interval; /* 3000 (while < densify_until) */
 } gv_splat_schedule;
 
+/* How the model grows: MCMC with a budget that follows the training pixels (the default),
+ * or the reference's clone / split / prune with opacity resets (docs/SPLAT_TRAINING.md). */
+typedef enum { GV_DENSIFY_MCMC, GV_DENSIFY_REFERENCE } gv_splat_densify_mode;
+/* "mcmc" or "reference"; -1 for anything else. */
+int gv_splat_densify_mode_parse(const char *name);
+const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode);
+
 typedef struct {
     int iterations;             /* 30000 (the reference); --iters 8000 for the dataset */
     int sh_degree;              /* 3 */
@@ -158,7 +199,11 @@ typedef struct {
     double lambda_dssim;        /* 0.2 */
     gv_splat_adam_config adam;
     gv_splat_schedule schedule;
-    gv_splat_densify_params densify; /* extent is set by the trainer */
+    gv_splat_densify_mode densify_mode;
+    gv_splat_densify_params densify; /* reference mode; extent is set by the trainer */
+    gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
+    double gaussians_per_pixel;
+    double initial_opacity;     /* 0: the mode's own (reference 0.1, MCMC 0.5) */
     const char *progress_label; /* NULL: no progress bar */
 } gv_splat_train_options;
 
@@ -178,11 +223,13 @@ typedef struct {
     gv_splat_renderer renderer;
     gv_splat_loss_work loss_work;
     float *render, *target, *d_render, *densify_grad;
+    int *all_rows;              /* 0, 1, 2, ...: Adam's list when every row has a gradient */
     int *order, order_pos;      /* this epoch's shuffled view order */
     gv_rng view_rng, bg_rng, split_rng;
     int iteration, active_degree;
     double loss, ema_loss;      /* last loss; 0.4 last + 0.6 previous (train.py) */
-    gv_splat_densify_counts densified; /* totals */
+    gv_splat_densify_counts densified; /* totals (reference mode) */
+    long relocated, added;      /* totals (MCMC mode) */
     double seconds[GV_PHASES];  /* time spent per phase */
 } gv_splat_trainer;
 

@@ -12,7 +12,9 @@ int cmd_splat_train(int argc, char **argv)
 {
     const char *scene_dir = NULL, *out = NULL;
     int interval = 1, iterations = 30000, downscale = 1, sh_degree = 3, seed = 0;
-    int white_bg = 0, random_bg = 0, sparse_adam = 0;
+    double grad_threshold = 0.0002, per_pixel = 0;
+    const char *densify = "mcmc";
+    int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &scene_dir, "DIR", "scene folder (COLMAP sparse/0 or transforms.json)", 1},
         {"out", GV_FLAG_STRING, &out, "FILE.ply", "the trained model (3DGS .ply)", 1},
@@ -25,6 +27,10 @@ int cmd_splat_train(int argc, char **argv)
         {"random-bg", GV_FLAG_BOOL, &random_bg, NULL, "a random background colour per iteration", 0},
         {"sparse-adam", GV_FLAG_BOOL, &sparse_adam, NULL,
          "Adam on the Gaussians visible in the view only (default: all, as the reference)", 0},
+        {"densify", GV_FLAG_STRING, &densify, "MODE", "mcmc (default: a budget that follows the data) or reference", 0},
+        {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
+        {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.1)", 0},
+        {"grad-threshold", GV_FLAG_DOUBLE, &grad_threshold, "X", "reference: densify threshold (default 0.0002)", 0},
     };
     const gv_command_spec spec = {
         "splat train", NULL, "train 3D Gaussian Splatting on the sparse split of a scene",
@@ -53,6 +59,15 @@ int cmd_splat_train(int argc, char **argv)
     opt.seed = (uint64_t)seed;
     opt.background = white_bg ? GV_BG_WHITE : random_bg ? GV_BG_RANDOM : GV_BG_BLACK;
     opt.sparse_adam = sparse_adam;
+    int mode = gv_splat_densify_mode_parse(densify);
+    if (mode < 0) {
+        fprintf(stderr, "gaussvid splat train: --densify %s: expected mcmc or reference\n", densify);
+        return 2;
+    }
+    opt.densify_mode = (gv_splat_densify_mode)mode;
+    opt.mcmc.cap = max_gaussians;
+    if (per_pixel > 0) opt.gaussians_per_pixel = per_pixel;
+    opt.densify.grad_threshold = grad_threshold;
     opt.progress_label = "train";
     gv_scene_options so = {.downscale = downscale, .white_background = white_bg};
     gv_scene scene;

@@ -22,8 +22,13 @@
 #include "gaussvid/core.h"
 #include "gaussvid/splat_train.h"
 
+/* gsplat's MCMC preset starts from opacity 0.5: relocation draws by opacity, and 0.1 would
+ * leave the first draws to chance. */
+#define MCMC_INITIAL_OPACITY 0.5
+
 /* Philox streams of one training run, derived from the seed. */
-enum { STREAM_VIEWS = 1, STREAM_BACKGROUND = 2, STREAM_SPLIT = 3, STREAM_INIT = 4 };
+enum { STREAM_VIEWS = 1, STREAM_BACKGROUND = 2, STREAM_SPLIT = 3, STREAM_INIT = 4,
+       STREAM_NOISE = 5 };
 
 static uint64_t stream_seed(uint64_t seed, int stream)
 {
@@ -45,6 +50,31 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
                                         .opacity_reset_interval = 3000};
     opt->densify = (gv_splat_densify_params){.grad_threshold = 0.0002, .percent_dense = 0.01,
                                              .min_opacity = 0.005};
+    opt->densify_mode = GV_DENSIFY_MCMC;
+    gv_splat_mcmc_defaults(&opt->mcmc);
+    opt->gaussians_per_pixel = 0.1;
+}
+
+int gv_splat_densify_mode_parse(const char *name)
+{
+    if (strcmp(name, "mcmc") == 0) return GV_DENSIFY_MCMC;
+    if (strcmp(name, "reference") == 0) return GV_DENSIFY_REFERENCE;
+    return -1;
+}
+
+const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode)
+{
+    return mode == GV_DENSIFY_MCMC ? "mcmc" : "reference";
+}
+
+/* The list 0 .. capacity - 1 (Adam's rows when a regulariser gives every row a gradient). */
+static int grow_all_rows(gv_splat_trainer *t)
+{
+    int *rows = realloc(t->all_rows, (size_t)t->params.capacity * sizeof(int));
+    if (!rows) return -1;
+    for (int i = 0; i < t->params.capacity; i++) rows[i] = i;
+    t->all_rows = rows;
+    return 0;
 }
 
 static int check_inputs(const gv_splat_train_options *opt, int n_views,
@@ -96,7 +126,7 @@ int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt
     t->opt = *opt;
     t->opt.densify.extent = extent;
     t->n_views = n_views, t->cameras = cameras, t->images = images, t->extent = extent;
-    long pixels = 0;
+    long pixels = 0, all_pixels = 0;
     t->views = calloc((size_t)n_views, sizeof *t->views);
     t->order = malloc((size_t)n_views * sizeof(int));
     if (!t->views || !t->order) goto out_of_memory;
@@ -107,19 +137,26 @@ int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt
         }
         long p = (long)cameras[i].width * cameras[i].height;
         if (p > pixels) pixels = p;
+        all_pixels += p;
     }
+    if (opt->densify_mode == GV_DENSIFY_MCMC && opt->mcmc.cap == 0)
+        t->opt.mcmc.cap = (int)fmin(opt->gaussians_per_pixel * (double)all_pixels, 1e9);
     t->render = malloc((size_t)pixels * 3 * sizeof(float));
     t->target = malloc((size_t)pixels * 3 * sizeof(float));
     t->d_render = malloc((size_t)pixels * 3 * sizeof(float));
     if (!t->render || !t->target || !t->d_render) goto out_of_memory;
     if (initial_gaussians(t, n_points, xyz, rgb) != 0) goto fail;
+    double o = opt->initial_opacity > 0 ? opt->initial_opacity
+               : opt->densify_mode == GV_DENSIFY_MCMC ? MCMC_INITIAL_OPACITY : 0;
+    if (o > 0 && o < 1)
+        for (int i = 0; i < t->params.n; i++) t->params.opacities[i] = (float)log(o / (1.0 - o));
     if (gv_gaussians_alloc(&t->grad, t->params.n, t->params.sh_degree) != 0 ||
         gv_gaussians_reserve(&t->grad, t->params.capacity) != 0 ||
         gv_splat_adam_init(&t->adam, &opt->adam, &t->params, extent) != 0 ||
         gv_splat_densify_stats_reserve(&t->stats, t->params.capacity) != 0)
         goto fail;
     t->densify_grad = calloc((size_t)t->params.capacity, sizeof(float));
-    if (!t->densify_grad) goto out_of_memory;
+    if (!t->densify_grad || grow_all_rows(t) != 0) goto out_of_memory;
     t->order_pos = n_views; /* empty: the first step shuffles */
     gv_rng_init(&t->view_rng, stream_seed(opt->seed, STREAM_VIEWS));
     gv_rng_init(&t->bg_rng, stream_seed(opt->seed, STREAM_BACKGROUND));
@@ -140,7 +177,7 @@ void gv_splat_trainer_free(gv_splat_trainer *t)
     gv_splat_renderer_free(&t->renderer);
     gv_splat_loss_free(&t->loss_work);
     free(t->views), free(t->order), free(t->render), free(t->target), free(t->d_render);
-    free(t->densify_grad);
+    free(t->densify_grad), free(t->all_rows);
     memset(t, 0, sizeof *t);
 }
 
@@ -205,6 +242,7 @@ static int resize_buffers(gv_splat_trainer *t)
     float *d = realloc(t->densify_grad, (size_t)cap * sizeof(float));
     if (!d) return gv_fail("train: out of memory for %d Gaussians", cap);
     t->densify_grad = d;
+    if (grow_all_rows(t) != 0) return gv_fail("train: out of memory for %d Gaussians", cap);
     t->grad.n = t->params.n;
     int w = 3 * gv_sh_coefficient_count(t->grad.sh_degree);
     size_t n = (size_t)t->grad.n;
@@ -213,6 +251,58 @@ static int resize_buffers(gv_splat_trainer *t)
     memset(t->grad.opacities, 0, n * sizeof(float));
     memset(t->grad.scales, 0, 3 * n * sizeof(float));
     memset(t->grad.rotations, 0, 4 * n * sizeof(float));
+    return 0;
+}
+
+/* Steps 5 and 6 of the reference: density control, then Adam (skipped in an iteration
+ * that densified). */
+static int reference_update(gv_splat_trainer *t, double seconds[2])
+{
+    double t0 = gv_now();
+    int control = density_control(t);
+    if (control < 0) return -1;
+    double t1 = gv_now();
+    if (control & 1) {
+        if (resize_buffers(t) != 0) return -1;
+    } else {
+        unsigned groups = GV_ADAM_ALL_GROUPS & ~(control & 2 ? 1u << GV_ADAM_OPACITY : 0u);
+        const gv_splat_renderer *r = &t->renderer;
+        int n_coeffs = gv_sh_coefficient_count(t->active_degree);
+        /* The last iteration does not step (train.py): its gradient is only dropped. */
+        if (t->iteration >= t->opt.iterations) groups = 0;
+        gv_splat_adam_step(&t->adam, &t->params, &t->grad, r->tiles.visible, r->tiles.n_visible,
+                           groups != 0 && !t->opt.sparse_adam, n_coeffs, groups);
+    }
+    seconds[0] = t1 - t0, seconds[1] = gv_now() - t1;
+    return 0;
+}
+
+/* gsplat's MCMC order: Adam with the regularisers' gradients (every row has one, so every
+ * row steps), then at refinement iterations relocation and growth, then noise. The last
+ * iteration neither steps nor moves anything, as in the reference mode. */
+static int mcmc_update(gv_splat_trainer *t, double seconds[2])
+{
+    int it = t->iteration, last = it >= t->opt.iterations;
+    const gv_splat_mcmc_params *p = &t->opt.mcmc;
+    double t0 = gv_now();
+    gv_splat_mcmc_regularize(&t->params, p, &t->grad);
+    unsigned groups = last ? 0 : GV_ADAM_ALL_GROUPS;
+    gv_splat_adam_step(&t->adam, &t->params, &t->grad, t->all_rows, t->params.n, groups != 0,
+                       gv_sh_coefficient_count(t->active_degree), groups);
+    double t1 = gv_now();
+    const gv_splat_schedule *s = &t->opt.schedule;
+    if (!last && it > s->densify_from && it < s->densify_until && it % s->densify_interval == 0) {
+        int moved, added;
+        if (gv_splat_mcmc_relocate(&t->params, &t->adam, p, &t->split_rng, &moved) != 0 ||
+            gv_splat_mcmc_grow(&t->params, &t->adam, p, &t->split_rng, &added) != 0 ||
+            resize_buffers(t) != 0)
+            return -1;
+        t->relocated += moved, t->added += added;
+    }
+    if (!last)
+        gv_splat_mcmc_noise(&t->params, p, t->adam.lr[GV_ADAM_MEANS],
+                            stream_seed(t->opt.seed, STREAM_NOISE) + (uint64_t)it);
+    seconds[0] = gv_now() - t1, seconds[1] = t1 - t0;
     return 0;
 }
 
@@ -242,23 +332,12 @@ int gv_splat_trainer_step(gv_splat_trainer *t)
     if (gv_splat_render_backward(&t->renderer, &t->params, t->d_render, &t->grad, t->densify_grad))
         return gv_fail_context("train: iteration %d", it);
     double t3 = gv_now();
-    int control = density_control(t);
-    if (control < 0) return gv_fail_context("train: iteration %d", it);
-    double t4 = gv_now();
-    if (control & 1) {
-        if (resize_buffers(t) != 0) return gv_fail_context("train: iteration %d", it);
-    } else {
-        unsigned groups = GV_ADAM_ALL_GROUPS & ~(control & 2 ? 1u << GV_ADAM_OPACITY : 0u);
-        const gv_splat_renderer *r = &t->renderer;
-        int n_coeffs = gv_sh_coefficient_count(t->active_degree);
-        /* The last iteration does not step (train.py): its gradient is only dropped. */
-        if (it >= t->opt.iterations) groups = 0;
-        gv_splat_adam_step(&t->adam, &t->params, &t->grad, r->tiles.visible, r->tiles.n_visible,
-                           groups != 0 && !t->opt.sparse_adam, n_coeffs, groups);
-    }
-    double t5 = gv_now();
+    double seconds[2]; /* densification, Adam */
+    int rc = t->opt.densify_mode == GV_DENSIFY_MCMC ? mcmc_update(t, seconds)
+                                                    : reference_update(t, seconds);
+    if (rc != 0) return gv_fail_context("train: iteration %d", it);
     t->seconds[GV_PHASE_RENDER] += t1 - t0, t->seconds[GV_PHASE_LOSS] += t2 - t1;
-    t->seconds[GV_PHASE_BACKWARD] += t3 - t2, t->seconds[GV_PHASE_DENSIFY] += t4 - t3;
-    t->seconds[GV_PHASE_ADAM] += t5 - t4;
+    t->seconds[GV_PHASE_BACKWARD] += t3 - t2, t->seconds[GV_PHASE_DENSIFY] += seconds[0];
+    t->seconds[GV_PHASE_ADAM] += seconds[1];
     return 0;
 }

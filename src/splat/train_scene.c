@@ -25,11 +25,16 @@ static int run(gv_splat_trainer *t, const char *label)
     }
     if (label) gv_progress_finish(&bar);
     double per = 1000.0 / (t->iteration > 0 ? t->iteration : 1);
-    gv_info("ms per iteration: render %.2f, loss %.2f, backward %.2f, densify %.2f, Adam %.2f; "
-            "%d cloned, %d split, %d pruned", t->seconds[GV_PHASE_RENDER] * per,
-            t->seconds[GV_PHASE_LOSS] * per, t->seconds[GV_PHASE_BACKWARD] * per,
-            t->seconds[GV_PHASE_DENSIFY] * per, t->seconds[GV_PHASE_ADAM] * per,
-            t->densified.cloned, t->densified.split, t->densified.pruned);
+    gv_info("ms per iteration: render %.2f, loss %.2f, backward %.2f, densify %.2f, Adam %.2f",
+            t->seconds[GV_PHASE_RENDER] * per, t->seconds[GV_PHASE_LOSS] * per,
+            t->seconds[GV_PHASE_BACKWARD] * per, t->seconds[GV_PHASE_DENSIFY] * per,
+            t->seconds[GV_PHASE_ADAM] * per);
+    if (t->opt.densify_mode == GV_DENSIFY_MCMC)
+        gv_info("MCMC density control: budget %d Gaussians, %ld relocated, %ld added",
+                t->opt.mcmc.cap, t->relocated, t->added);
+    else
+        gv_info("reference density control: %d cloned, %d split, %d pruned",
+                t->densified.cloned, t->densified.split, t->densified.pruned);
     return 0;
 }
 
