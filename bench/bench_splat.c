@@ -1,14 +1,18 @@
 /* `gaussvid bench splat`: speed of sparse-view 3DGS training (DESIGN.md section 5).
  * For each scene (the shared courtyard and livingroom by default), trains on every 6th frame
- * for 8000 iterations as the dataset builder does and reports:
+ * for 8000 iterations as the dataset builder does, once with the default density control
+ * (MCMC) and once with `--densify reference`, one after the other in the same process, and
+ * reports for each run:
  * - the median milliseconds per iteration of each phase of the loop (render forward, loss,
  *   backward, densification, Adam) and the seconds for the whole run;
  * - every 1000 iterations, the Gaussian count and the median time of each kernel stage on
  *   the current model (projection, SH colour, binning and sort, rasteriser forward and
  *   backward, projection and SH backward), run on their own;
- * - the held-out and training-view PSNR / SSIM of the final model. */
+ * - the held-out and training-view PSNR / SSIM of the final model and the run's peak RSS;
+ * then one table of both modes per scene with the ratio of their wall times. */
 #include <math.h>
 #include <omp.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -118,7 +122,29 @@ typedef struct {
     checkpoint checkpoints[64];
     double held_psnr, held_ssim, train_psnr, train_ssim;
     int final_gaussians;
+    gv_splat_densify_mode mode;
+    long peak_rss_kib;     /* of this run alone (-1 when the kernel cannot tell) */
 } scene_result;
+
+/* Resets the kernel's peak-RSS mark of this process (clear_refs "5", Linux >= 4.0), so
+ * that the next reading is the peak of the run that follows. */
+static void reset_peak_rss(void)
+{
+    FILE *f = fopen("/proc/self/clear_refs", "w");
+    if (f) fputs("5", f), fclose(f);
+}
+
+/* VmHWM of this process in KiB, or -1. */
+static long peak_rss_kib(void)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    long kib = -1;
+    while (f && fgets(line, sizeof line, f))
+        if (sscanf(line, "VmHWM: %ld kB", &kib) == 1) break;
+    if (f) fclose(f);
+    return kib;
+}
 
 static int evaluate(const gv_splat_trainer *t, const gv_scene *scene, int interval,
                     scene_result *res)
@@ -144,8 +170,10 @@ static int evaluate(const gv_splat_trainer *t, const gv_scene *scene, int interv
     return ok;
 }
 
-static int bench_scene(const char *dir, const gv_bench_splat_options *o, scene_result *res)
+static int bench_scene(const char *dir, const gv_bench_splat_options *o,
+                       gv_splat_densify_mode mode, scene_result *res)
 {
+    reset_peak_rss();
     gv_scene scene;
     if (gv_scene_load(dir, NULL, &scene) != 0) return -1;
     int n = scene.n_frames, n_train = 0, n_held = 0;
@@ -170,17 +198,21 @@ static int bench_scene(const char *dir, const gv_bench_splat_options *o, scene_r
     gv_splat_train_defaults(&opt);
     opt.iterations = o->iterations;
     opt.sparse_adam = o->sparse_adam;
+    opt.densify_mode = mode;
     if (gv_splat_trainer_init(&t, &opt, n_train, cams, images,
                               gv_scene_extent(&scene, train, n_train), scene.n_points,
                               scene.points, scene.colors) != 0)
         goto done;
     const char *base = strrchr(dir, '/');
     snprintf(res->name, sizeof res->name, "%s", base && base[1] ? base + 1 : dir);
+    res->mode = mode;
     res->width = cams[0].width, res->height = cams[0].height;
     res->n_train = n_train, res->iterations = o->iterations, res->n_checkpoints = 0;
     int every = o->checkpoint_every;
     gv_progress bar;
-    gv_progress_start(&bar, res->name, o->iterations);
+    char label[300];
+    snprintf(label, sizeof label, "%s (%s)", res->name, gv_splat_densify_mode_name(mode));
+    gv_progress_start(&bar, label, o->iterations);
     double start = gv_now(), cpu_start = cpu_seconds(), stage_time = 0, stage_cpu = 0;
     for (int it = 0; it < o->iterations; it++) {
         double before[GV_PHASES];
@@ -209,6 +241,7 @@ static int bench_scene(const char *dir, const gv_bench_splat_options *o, scene_r
     }
     res->iteration_median_ms = median(total, o->iterations);
     res->final_gaussians = t.params.n;
+    res->peak_rss_kib = peak_rss_kib();
     ok = evaluate(&t, &scene, o->interval, res);
 done:
     gv_splat_trainer_free(&t);
@@ -221,9 +254,10 @@ done:
 
 static void print_table(const scene_result *r, const gv_bench_splat_options *o, FILE *out)
 {
-    fprintf(out, "\n%s %dx%d, interval %d (%d training views), %d iterations, %d threads, %s Adam\n",
-            r->name, r->width, r->height, o->interval, r->n_train, r->iterations,
-            omp_get_max_threads(), o->sparse_adam ? "sparse" : "dense");
+    fprintf(out, "\n%s %dx%d, interval %d (%d training views), %d iterations, %d threads, "
+            "density control %s, %s Adam\n", r->name, r->width, r->height, o->interval,
+            r->n_train, r->iterations, omp_get_max_threads(), gv_splat_densify_mode_name(r->mode),
+            r->mode == GV_DENSIFY_MCMC ? "dense (every row)" : o->sparse_adam ? "sparse" : "dense");
     fprintf(out, "%9s %9s %8s %8s", "iteration", "gaussians", "visible", "entries");
     for (int s = 0; s < STAGES; s++) fprintf(out, " %12s", stage_names[s]);
     fprintf(out, "   (ms, median of 5)\n");
@@ -242,14 +276,36 @@ static void print_table(const scene_result *r, const gv_bench_splat_options *o, 
     fprintf(out, " total %.2f\n", 1e3 * r->seconds / r->iterations);
     fprintf(out, "seconds for %d iterations: %.1f (CPU %.1f s over all threads); final Gaussians %d\n",
             r->iterations, r->seconds, r->cpu_seconds, r->final_gaussians);
-    fprintf(out, "held-out PSNR %.3f dB, SSIM %.4f; training views PSNR %.3f dB, SSIM %.4f\n",
-            r->held_psnr, r->held_ssim, r->train_psnr, r->train_ssim);
+    fprintf(out, "held-out PSNR %.3f dB, SSIM %.4f; training views PSNR %.3f dB, SSIM %.4f; "
+            "peak RSS %.0f MiB\n", r->held_psnr, r->held_ssim, r->train_psnr, r->train_ssim,
+            r->peak_rss_kib / 1024.0);
+}
+
+/* Both modes of each scene side by side: the speed-up is a ratio of two runs of one
+ * invocation, not of two days. results[k] are in (scene, mode) order. */
+static void print_comparison(const scene_result *results, int n, FILE *out)
+{
+    fprintf(out, "\n| scene | densify | seconds | speed-up | Gaussians | held-out PSNR / SSIM | "
+                 "peak RSS MiB |\n|---|---|---:|---:|---:|---|---:|\n");
+    for (int k = 0; k < n; k++) {
+        const scene_result *r = &results[k], *ref = NULL;
+        for (int j = 0; j < n; j++)
+            if (strcmp(results[j].name, r->name) == 0 && results[j].mode == GV_DENSIFY_REFERENCE)
+                ref = &results[j];
+        char ratio[32] = "";
+        if (ref) snprintf(ratio, sizeof ratio, "%.2fx", ref->seconds / r->seconds);
+        fprintf(out, "| %s | %s | %.1f | %s | %d | %.2f / %.4f | %.0f |\n", r->name,
+                gv_splat_densify_mode_name(r->mode), r->seconds, ratio, r->final_gaussians,
+                r->held_psnr, r->held_ssim, r->peak_rss_kib / 1024.0);
+    }
 }
 
 static cJSON *result_json(const scene_result *r)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "scene", r->name);
+    cJSON_AddStringToObject(o, "densify", gv_splat_densify_mode_name(r->mode));
+    cJSON_AddNumberToObject(o, "peak_rss_mib", r->peak_rss_kib / 1024.0);
     cJSON_AddNumberToObject(o, "width", r->width);
     cJSON_AddNumberToObject(o, "height", r->height);
     cJSON_AddNumberToObject(o, "training_views", r->n_train);
@@ -300,17 +356,25 @@ int gv_bench_splat(const gv_bench_splat_options *o, FILE *out)
                            base ? base : "../shared/data");
     }
     cJSON *all = o->json ? cJSON_CreateArray() : NULL;
-    for (int k = 0; k < n_dirs; k++) {
-        scene_result *r = calloc(1, sizeof *r);
-        if (!r || bench_scene(dirs[k], o, r) != 0) {
-            free(r);
-            cJSON_Delete(all);
-            return r ? -1 : gv_fail("bench splat: out of memory");
+    const gv_splat_densify_mode modes[2] = {GV_DENSIFY_MCMC, GV_DENSIFY_REFERENCE};
+    scene_result *results = calloc((size_t)2 * n_dirs, sizeof *results);
+    if (!results) return gv_fail("bench splat: out of memory");
+    int n_results = 0;
+    for (int k = 0; k < n_dirs; k++)
+        for (int m = 0; m < 2; m++) {
+            if (!(o->modes >> m & 1)) continue;
+            scene_result *r = &results[n_results];
+            if (bench_scene(dirs[k], o, modes[m], r) != 0) {
+                free(results);
+                cJSON_Delete(all);
+                return -1;
+            }
+            n_results++;
+            if (all) cJSON_AddItemToArray(all, result_json(r));
+            else print_table(r, o, out);
         }
-        if (all) cJSON_AddItemToArray(all, result_json(r));
-        else print_table(r, o, out);
-        free(r);
-    }
+    if (!all) print_comparison(results, n_results, out);
+    free(results);
     if (all) {
         char *text = cJSON_Print(all);
         if (text) fprintf(out, "%s\n", text);
@@ -324,24 +388,35 @@ int gv_bench_splat_command(int argc, char **argv)
 {
     gv_bench_splat_options o = {.interval = 6, .iterations = 8000, .checkpoint_every = 1000};
     int quick = 0;
+    const char *densify = "both";
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene, "DIR", "one scene (default: the shared courtyard and livingroom)", 0},
         {"json", GV_FLAG_BOOL, &o.json, NULL, "print JSON instead of tables", 0},
         {"quick", GV_FLAG_BOOL, &quick, NULL, "300 iterations (a smoke test)", 0},
         {"iters", GV_FLAG_INT, &o.iterations, "N", "iterations (default 8000)", 0},
         {"interval", GV_FLAG_INT, &o.interval, "N", "train on frames 0, N, 2N, ... (default 6)", 0},
-        {"sparse-adam", GV_FLAG_BOOL, &o.sparse_adam, NULL, "Adam on the visible Gaussians only", 0},
+        {"sparse-adam", GV_FLAG_BOOL, &o.sparse_adam, NULL, "reference mode: Adam on the visible Gaussians only", 0},
+        {"densify", GV_FLAG_STRING, &densify, "MODE", "mcmc, reference or both (default both: the ratio of their times)", 0},
     };
     const gv_command_spec spec = {
         "bench splat", NULL, "sparse-view 3DGS training speed: phases, kernel stages, quality",
-        "Trains on every 6th frame of each scene for 8000 iterations (the dataset's early stop)\n"
-        "and prints the median ms per iteration of each phase, the Gaussian count and the\n"
-        "median time of each kernel stage every 1000 iterations, the seconds for the run and\n"
-        "the final held-out PSNR / SSIM. Results: docs/BENCHMARKS.md.",
+        "Trains on every 6th frame of each scene for 8000 iterations (the dataset's early stop),\n"
+        "with the default density control (mcmc) and with --densify reference, and prints for\n"
+        "each run the median ms per iteration of each phase, the Gaussian count and the median\n"
+        "time of each kernel stage every 1000 iterations, the seconds for the run, its peak RSS\n"
+        "and the final held-out PSNR / SSIM; then both modes side by side with the ratio of\n"
+        "their wall times. Results: docs/BENCHMARKS.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int rc = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (rc != GV_ARGS_OK) return gv_args_exit_code(rc);
     if (quick) o.iterations = 300, o.checkpoint_every = 100;
+    int mode = strcmp(densify, "both") == 0 ? 2 : gv_splat_densify_mode_parse(densify);
+    if (mode < 0) {
+        fprintf(stderr, "gaussvid bench splat: --densify %s: expected mcmc, reference or both\n",
+                densify);
+        return 2;
+    }
+    o.modes = mode == 2 ? 3 : mode == GV_DENSIFY_MCMC ? 1 : 2;
     if (o.iterations < 1 || o.interval < 1) {
         fprintf(stderr, "gaussvid bench splat: --iters and --interval must be at least 1\n");
         return 2;

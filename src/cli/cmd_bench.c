@@ -43,7 +43,7 @@ static int cmd_bench_all(int argc, char **argv)
     if (gv_bench_model(&mo, stdout) != 0) return gv_report_failure();
     if (gv_bench_train(&o, "small", 144, 256, stdout) != 0) return gv_report_failure();
     gv_bench_splat_options so = {.interval = 6, .iterations = o.quick ? 300 : 8000,
-                                 .checkpoint_every = o.quick ? 100 : 1000};
+                                 .checkpoint_every = o.quick ? 100 : 1000, .modes = 3};
     return gv_bench_splat(&so, stdout) == 0 ? 0 : gv_report_failure();
 }
 
