@@ -115,8 +115,6 @@ typedef struct {
     int prune_big;           /* also prune max scale > 0.1 x extent (after the first reset) */
     int max_screen_size;     /* prune max radius > this (pixels); 0 = off, as the reference
                               * effectively runs (its statistic is zeroed before the test) */
-    int max_gaussians;       /* budget: clone or split only the largest statistics that keep
-                              * the count at or below this; 0 = no budget (the reference) */
 } gv_splat_densify_params;
 
 typedef struct { int cloned, split, pruned; } gv_splat_densify_counts;

@@ -29,7 +29,7 @@ int cmd_splat_train(int argc, char **argv)
          "Adam on the Gaussians visible in the view only (default: all, as the reference)", 0},
         {"densify", GV_FLAG_STRING, &densify, "MODE", "mcmc (default: a budget that follows the data) or reference", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
-        {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.1)", 0},
+        {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
         {"grad-threshold", GV_FLAG_DOUBLE, &grad_threshold, "X", "reference: densify threshold (default 0.0002)", 0},
     };
     const gv_command_spec spec = {

@@ -147,33 +147,6 @@ static void make_child(gv_gaussians *g, int dst, int src, gv_rng *rng)
 
 /* ---- densify_and_prune ---------------------------------------------------------------- */
 
-typedef struct { float grad; int index; } candidate;
-
-/* Larger statistic first; the lower index first among equals, so the choice is the same on
- * every machine. */
-static int by_grad_descending(const void *a, const void *b)
-{
-    const candidate *x = a, *y = b;
-    if (x->grad != y->grad) return x->grad > y->grad ? -1 : 1;
-    return (x->index > y->index) - (x->index < y->index);
-}
-
-/* Keeps the `room` candidates with the largest statistic (each clone or split adds one
- * row) and unmarks the others; returns -1 when memory runs out. */
-static int keep_largest(const gv_splat_densify_stats *s, int n0, unsigned char *clone,
-                        unsigned char *split, int n_candidates, int room)
-{
-    candidate *c = malloc((size_t)n_candidates * sizeof *c);
-    if (!c) return gv_fail("densify: out of memory for %d candidates", n_candidates);
-    int k = 0;
-    for (int i = 0; i < n0; i++)
-        if (clone[i] || split[i]) c[k++] = (candidate){s->grad_accum[i] / (float)s->denom[i], i};
-    qsort(c, (size_t)k, sizeof *c, by_grad_descending);
-    for (int j = room > 0 ? room : 0; j < k; j++) clone[c[j].index] = split[c[j].index] = 0;
-    free(c);
-    return 0;
-}
-
 int gv_splat_densify_and_prune(gv_gaussians *g, gv_splat_adam *adam,
                                gv_splat_densify_stats *s, const gv_splat_densify_params *p,
                                gv_rng *rng, gv_splat_densify_counts *counts)
@@ -192,14 +165,6 @@ int gv_splat_densify_and_prune(gv_gaussians *g, gv_splat_adam *adam,
         if (!(grad >= (float)p->grad_threshold)) continue;
         if (max_scale(g, i) <= (float)dense_limit) clone[i] = 1, n_clone++;
         else split[i] = 1, n_split++;
-    }
-    if (p->max_gaussians > 0 && n0 + n_clone + n_split > p->max_gaussians) {
-        if (keep_largest(s, n0, clone, split, n_clone + n_split, p->max_gaussians - n0) != 0) {
-            free(clone), free(split);
-            return -1;
-        }
-        n_clone = n_split = 0;
-        for (int i = 0; i < n0; i++) n_clone += clone[i], n_split += split[i];
     }
     /* Clones (rows n0 ..), then children (rows n1 ..): first children of every parent, then
      * the second ones, as torch's repeat(N, 1) orders them. */

@@ -52,7 +52,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
                                              .min_opacity = 0.005};
     opt->densify_mode = GV_DENSIFY_MCMC;
     gv_splat_mcmc_defaults(&opt->mcmc);
-    opt->gaussians_per_pixel = 0.1;
+    opt->gaussians_per_pixel = 0.02;
 }
 
 int gv_splat_densify_mode_parse(const char *name)
