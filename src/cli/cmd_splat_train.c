@@ -26,7 +26,7 @@ int cmd_splat_train(int argc, char **argv)
         {"white-bg", GV_FLAG_BOOL, &white_bg, NULL, "white background (default black)", 0},
         {"random-bg", GV_FLAG_BOOL, &random_bg, NULL, "a random background colour per iteration", 0},
         {"sparse-adam", GV_FLAG_BOOL, &sparse_adam, NULL,
-         "Adam on the Gaussians visible in the view only (default: all, as the reference)", 0},
+         "reference mode: Adam on the visible Gaussians only (default: all; mcmc steps all)", 0},
         {"densify", GV_FLAG_STRING, &densify, "MODE", "mcmc (default: a budget that follows the data) or reference", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
@@ -34,11 +34,15 @@ int cmd_splat_train(int argc, char **argv)
     };
     const gv_command_spec spec = {
         "splat train", NULL, "train 3D Gaussian Splatting on the sparse split of a scene",
-        "Trains on frames 0, N, 2N, ... (N = --interval) with the reference 3DGS recipe:\n"
-        "initialisation from the scene's points, Adam with the reference learning rates,\n"
-        "clone/split/prune from iteration 500 to 15000 every 100, opacity reset every 3000,\n"
-        "one more SH degree every 1000 iterations, loss 0.8 L1 + 0.2 (1 - SSIM).\n"
-        "--iters N stops the reference schedule early (nothing is rescaled).\n"
+        "Trains on frames 0, N, 2N, ... (N = --interval): initialisation from the scene's\n"
+        "points, Adam with the reference learning rates, one more SH degree every 1000\n"
+        "iterations, loss 0.8 L1 + 0.2 (1 - SSIM). Density control (--densify):\n"
+        "  mcmc       (default) a budget of --per-pixel Gaussians per training pixel;\n"
+        "             transparent Gaussians are relocated onto opaque ones, the count grows\n"
+        "             by 5 % every 100 iterations from 500 until the budget (3DGS as MCMC)\n"
+        "  reference  the paper's artifact simulation: clone/split/prune from iteration 500\n"
+        "             to 15000 every 100, opacity reset every 3000\n"
+        "--iters N stops the schedule early (nothing is rescaled).\n"
         "Same seed, inputs and --threads give the same model. See docs/SPLAT_TRAINING.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
@@ -62,6 +66,11 @@ int cmd_splat_train(int argc, char **argv)
     int mode = gv_splat_densify_mode_parse(densify);
     if (mode < 0) {
         fprintf(stderr, "gaussvid splat train: --densify %s: expected mcmc or reference\n", densify);
+        return 2;
+    }
+    if (max_gaussians < 0 || per_pixel < 0 || !(grad_threshold > 0)) {
+        fprintf(stderr, "gaussvid splat train: --max-gaussians and --per-pixel must be non-negative, "
+                        "--grad-threshold positive\n");
         return 2;
     }
     opt.densify_mode = (gv_splat_densify_mode)mode;
