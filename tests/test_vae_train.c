@@ -9,7 +9,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/nn.h"
 #include "gaussvid/vae_train.h"
-#include "model/vae_train_internal.h"
+#include "train/vae_train_internal.h"
 
 static const char *tmp;
 

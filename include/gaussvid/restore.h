@@ -105,7 +105,7 @@ int gv_compose_from_name(const char *name, gv_compose *out);
 int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *l, const float *z_restored,
                        gv_compose mode, uint8_t *out);
 
-/* ---- evaluation (restore_eval.c) ---------------------------------------------------------- */
+/* ---- evaluation (eval/tables.c) ---------------------------------------------------------- */
 /* PSNR and SSIM (metrics.h, as the 3DGS evaluation) of the three intermediates, baseline
  * (the corrupted inputs) and restored, summed per interval n. */
 typedef struct {

@@ -9,7 +9,7 @@
 #include "gaussvid/model_config.h"
 #include "gaussvid/vae.h"
 
-/* ---- frames of scenes (model/vae_data.c) ----------------------------------------------- */
+/* ---- frames of scenes (train/vae_data.c) ----------------------------------------------- */
 typedef struct {
     char dir[4096];
     int n_frames, width, height;  /* every frame of a scene has the same size */
@@ -32,7 +32,7 @@ void gv_vae_frames_free(gv_vae_frames *f);
 void gv_vae_clip_extract(const gv_vae_scene *s, int t0, int stride, int T, int x0, int y0, int w,
                          int h, int flip, float *out);
 
-/* ---- training (model/vae_train.c) -------------------------------------------------------
+/* ---- training (train/vae_train.c) -------------------------------------------------------
  * Objective (docs/VAE.md): mean |x^ - x| + l2_weight mean (x^ - x)^2 + kl_weight KL, with
  * x^ decoded from z = mu + sigma eps (eps ~ N(0, 1); z = mu when kl_weight is 0) and KL the
  * posterior's divergence from N(0, 1) summed over latent values and divided by the number of
@@ -67,7 +67,7 @@ void gv_vae_train_defaults(gv_vae_train_options *o);
 int gv_vae_train(const gv_model_config *c, const gv_vae_frames *train, const gv_vae_frames *eval,
                  const gv_vae_train_options *o);
 
-/* ---- evaluation (model/vae_eval.c) -------------------------------------------------------- */
+/* ---- evaluation (eval/vae_eval.c) -------------------------------------------------------- */
 typedef struct {
     int n_clips, n_frames;
     double psnr, ssim;           /* means over frames, of images in [0, 1] */
@@ -82,7 +82,7 @@ typedef struct {
 int gv_vae_evaluate(gv_vae *v, const gv_vae_frames *f, int frames, int stride, int max_clips,
                     gv_vae_eval_result *r);
 
-/* ---- residual decoding on dataset clips (model/vae_residual.c) ----------------------------
+/* ---- residual decoding on dataset clips (eval/vae_residual.c) ----------------------------
  * What the VAE costs a restorer on real inputs: per scored frame, the PSNR / SSIM against the
  * ground truth of the render itself (the sparse-3DGS baseline), of D(E(render)) (the render
  * through the VAE), of D(E(target)) (a perfect restorer, decoded plainly), of the residual

@@ -12,7 +12,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/nn.h"
 #include "gaussvid/vae_train.h"
-#include "model/vae_train_internal.h"
+#include "train/vae_train_internal.h"
 
 void gv_vae_train_defaults(gv_vae_train_options *o)
 {
