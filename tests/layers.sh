@@ -3,7 +3,7 @@
 # of its own module and of the modules below it, never of one above. Each line: a module, the
 # modules right below it (what it may use, with everything below them), and its public headers
 # in include/gaussvid/. Fails naming every include that points up or sideways, every public
-# header no module owns and every src/ folder missing from the order.
+# header no module owns, every src/ folder missing from the order and CBLAS outside src/nn/.
 # Usage: bash tests/layers.sh SOURCE_DIR
 LAYERS='
 core    : -           : core camera
@@ -71,6 +71,13 @@ while read -r f; do
         fi
     done < <(grep -E '^[[:space:]]*#[[:space:]]*include[[:space:]]+"' "$f")
 done < <(find src bench include -name '*.[ch]' | sort)
+
+# CBLAS is the tensor engine's (DESIGN 10: GEMM behind a narrow interface): only src/nn/ calls
+# it, besides main.c, which names the kernel OpenBLAS chose, and the benchmark of the engine
+# against plain SGEMM.
+for f in $(grep -rlE '#[[:space:]]*include[[:space:]]+<cblas.h>' src bench); do
+    [[ $f == src/nn/* || $f == src/cli/main.c || $f == bench/bench_nn.c ]] || bad "$f includes <cblas.h>: use the tensor engine (gv_gemm, ops.h)"
+done
 
 echo "layers: $checked includes checked against ${#modules[@]} modules"
 exit $failed
