@@ -15,7 +15,6 @@
 #include <time.h>
 
 #include "bench/bench_model.h"
-#include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/dit.h"
 #include "gaussvid/plucker.h"

@@ -20,7 +20,6 @@
 #include <cjson/cJSON.h>
 
 #include "bench/bench.h"
-#include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/splat_train.h"
 

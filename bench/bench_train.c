@@ -15,7 +15,6 @@
 #include <unistd.h>
 
 #include "bench/bench_train.h"
-#include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/plucker.h"
 #include "gaussvid/restore.h"

@@ -10,6 +10,7 @@
 #include "check.h"
 #include "model_testutil.h"
 #include "test_restore_fixtures.h"
+#include "gaussvid/eval.h"
 #include "gaussvid/metrics.h"
 #include "gaussvid/restore.h"
 
@@ -409,6 +410,13 @@ static void test_eval_lpips(const char *tmp)
     gv_lpips_free(&net);
 }
 
+/* o with each restored clip added to t. */
+static gv_restore_options *into(gv_restore_options *o, gv_eval_table *t)
+{
+    o->each = gv_eval_add_restored, o->each_ctx = t;
+    return o;
+}
+
 /* Whole runs on a dataset folder and on clip files. */
 static void test_runs(const char *tmp)
 {
@@ -419,27 +427,27 @@ static void test_runs(const char *tmp)
     CHECK(rf_make_dataset(dir, specs, 3, W, H, 40) == 0);
     setup s;
     CHECK(setup_make(&s, NULL, 50) == 0);
-    gv_restore_options o = {gv_sampler_default(), GV_COMPOSE_RESIDUAL, "eval", NULL, 0, 1, NULL};
+    gv_restore_options o = {gv_sampler_default(), GV_COMPOSE_RESIDUAL, "eval", NULL, 0, 1, NULL, NULL, NULL};
     /* identity + residual: the restored numbers are the baseline's, exactly */
     CHECK(gv_sampler_from_name("identity", &o.sampler) == 0);
     gv_eval_table t;
     gv_eval_init(&t, NULL);
-    CHECK(gv_restore_dataset(&s.model, &s.vae, dir, &o, &t) == 0);
+    CHECK(gv_restore_dataset(&s.model, &s.vae, dir, into(&o, &t)) == 0);
     gv_eval_finish(&t);
     CHECK(t.mean.clips == 2 && t.n_rows == 2 && t.mean.psnr_rest == t.mean.psnr_base && t.mean.ssim_rest == t.mean.ssim_base);
     /* the network: with and without the latent cache the same numbers; clip files too */
     o.sampler = gv_sampler_default();
     gv_eval_table a, b, c;
     gv_eval_init(&a, NULL), gv_eval_init(&b, NULL), gv_eval_init(&c, NULL);
-    CHECK(gv_restore_dataset(&s.model, &s.vae, dir, &o, &a) == 0);
+    CHECK(gv_restore_dataset(&s.model, &s.vae, dir, into(&o, &a)) == 0);
     o.use_cache = 0, o.out_dir = out, o.save_clips = 1;
-    CHECK(gv_restore_dataset(&s.model, &s.vae, dir, &o, &b) == 0);
+    CHECK(gv_restore_dataset(&s.model, &s.vae, dir, into(&o, &b)) == 0);
     char p1[4200], p2[4200];
     snprintf(p1, sizeof p1, "%s/clips/beta_n06_001.safetensors", dir);
     snprintf(p2, sizeof p2, "%s/clips/beta_n08_002.safetensors", dir);
     const char *paths[2] = {p1, p2};
     o.out_dir = NULL;
-    CHECK(gv_restore_files(&s.model, &s.vae, paths, 2, &o, &c) == 0);
+    CHECK(gv_restore_files(&s.model, &s.vae, paths, 2, into(&o, &c)) == 0);
     gv_eval_finish(&a), gv_eval_finish(&b), gv_eval_finish(&c);
     CHECK(a.mean.clips == 2 && a.mean.psnr_rest == b.mean.psnr_rest && a.mean.psnr_rest == c.mean.psnr_rest &&
           a.mean.ssim_rest == c.mean.ssim_rest);
@@ -459,24 +467,25 @@ static void test_runs(const char *tmp)
     }
     gv_clip_free(&orig), gv_clip_free(&saved);
     /* bad inputs name the file and the problem */
+    o.each = NULL;
     snprintf(path, sizeof path, "%s/nothing.safetensors", tmp);
     const char *missing[1] = {path};
-    CHECK_FAILS_WITH(gv_restore_files(&s.model, &s.vae, missing, 1, &o, NULL), "nothing.safetensors");
+    CHECK_FAILS_WITH(gv_restore_files(&s.model, &s.vae, missing, 1, &o), "nothing.safetensors");
     gv_clip odd;
     CHECK(rf_make_clip(&odd, "room", "eval", 6, 20, 32, 5, 1) == 0);
     snprintf(path, sizeof path, "%s/odd.safetensors", tmp);
     CHECK(gv_clip_write(path, &odd) == 0);
     gv_clip_free(&odd);
     const char *odd_path[1] = {path};
-    CHECK_FAILS_WITH(gv_restore_files(&s.model, &s.vae, odd_path, 1, &o, NULL), "spatial factor");
+    CHECK_FAILS_WITH(gv_restore_files(&s.model, &s.vae, odd_path, 1, &o), "spatial factor");
     CHECK(strstr(gv_last_error(), "odd.safetensors") != NULL);
     o.split = "test";
-    CHECK_FAILS_WITH(gv_restore_dataset(&s.model, &s.vae, dir, &o, NULL), "no test clips");
+    CHECK_FAILS_WITH(gv_restore_dataset(&s.model, &s.vae, dir, &o), "no test clips");
     o.split = "eval";
     o.sampler.t0 = 1.5;
-    CHECK_FAILS_WITH(gv_restore_dataset(&s.model, &s.vae, dir, &o, NULL), "t0 1.5");
+    CHECK_FAILS_WITH(gv_restore_dataset(&s.model, &s.vae, dir, &o), "t0 1.5");
     o.sampler.t0 = 0.3;
-    CHECK_FAILS_WITH(gv_restore_dataset(&s.model, &s.vae, tmp, &o, NULL), "no manifest.json");
+    CHECK_FAILS_WITH(gv_restore_dataset(&s.model, &s.vae, tmp, &o), "no manifest.json");
     setup_free(&s);
 }
 

@@ -4,6 +4,7 @@
 #include "check.h"
 #include "gaussvid/core.h"
 #include "gaussvid/image.h"
+#include "gaussvid/scene.h"
 #include "gaussvid/transforms.h"
 
 static const char *tmp;

@@ -7,7 +7,7 @@
 #include "check.h"
 #include "gaussvid/core.h"
 #include "gaussvid/vae.h"
-#include "gaussvid/vae_train.h"
+#include "gaussvid/eval.h"
 
 enum { T = 5, H = 16, W = 16, TL = 2 };
 

@@ -8,8 +8,8 @@
 #include "check.h"
 #include "gaussvid/core.h"
 #include "gaussvid/nn.h"
-#include "gaussvid/vae_train.h"
-#include "model/vae_train_internal.h"
+#include "gaussvid/eval.h"
+#include "train/vae_train_internal.h"
 
 static const char *tmp;
 

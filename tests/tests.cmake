@@ -43,6 +43,9 @@ gv_add_test_programs(test_*.c unit)
 # runs, too slow for the sanitizer build, which runs only the label "unit").
 gv_add_test_programs(itest_*.c integration)
 
+# The modules' order: no module includes a header of one above it (docs/LAYERS.md).
+gv_add_test(layers layout bash ${CMAKE_SOURCE_DIR}/tests/layers.sh ${CMAKE_SOURCE_DIR})
+
 file(GLOB GV_CLI_TESTS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/cli/*.sh)
 foreach(script ${GV_CLI_TESTS})
   get_filename_component(name ${script} NAME_WE)

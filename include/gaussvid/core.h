@@ -16,6 +16,8 @@ int gv_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 int gv_fail_context(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 const char *gv_last_error(void);
 void gv_clear_error(void);
+/* Prints "gaussvid: <last error>" on stderr and returns 1 (a command's failure exit code). */
+int gv_report_failure(void);
 
 /* ---- Logging ------------------------------------------------------------------------ */
 enum { GV_LOG_QUIET = 0, GV_LOG_INFO = 1, GV_LOG_DEBUG = 2 };

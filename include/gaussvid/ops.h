@@ -68,6 +68,9 @@ gv_tensor *gv_repeat(gv_graph *g, gv_tensor *x, int axis, int times);
 gv_tensor *gv_matmul(gv_graph *g, gv_tensor *a, gv_tensor *b, int trans_a, int trans_b);
 /* y = x W^T + bias, PyTorch layout: x [..., in], W [out, in], bias [out] or NULL. */
 gv_tensor *gv_linear(gv_graph *g, gv_tensor *x, gv_tensor *w, gv_tensor *bias);
+/* C [M, N] = A [M, K] B [K, N], row-major with leading dimensions lda, ldb, ldc, outside any
+ * graph: the engine's product (CBLAS) for code that keeps its own buffers (LPIPS). */
+void gv_gemm(int M, int N, int K, const float *A, int lda, const float *B, int ldb, float *C, int ldc);
 
 /* LoRA layer (nn/lora.c): x W^T + bias + scale (x A^T) B^T with A [r, in], B [out, r]; W is
  * usually frozen and B zero-initialised (DESIGN.md 6.7). Made of linear ops. */

@@ -30,7 +30,6 @@
 #include "gaussvid/condition.h"
 #include "gaussvid/dataset.h"
 #include "gaussvid/dit.h"
-#include "gaussvid/lpips.h"
 #include "gaussvid/vae.h"
 
 /* ---- samplers (sampler.c) ---------------------------------------------------------------- */
@@ -105,39 +104,6 @@ int gv_compose_from_name(const char *name, gv_compose *out);
 int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *l, const float *z_restored,
                        gv_compose mode, uint8_t *out);
 
-/* ---- evaluation (restore_eval.c) ---------------------------------------------------------- */
-/* PSNR and SSIM (metrics.h, as the 3DGS evaluation) of the three intermediates, baseline
- * (the corrupted inputs) and restored, summed per interval n. */
-typedef struct {
-    int n;
-    int clips, frames;
-    double psnr_base, ssim_base, psnr_rest, ssim_rest; /* sums until gv_eval_finish, then means */
-    double lpips_base, lpips_rest;                     /* the same, when the table has LPIPS */
-} gv_eval_row;
-
-typedef struct {
-    int n_rows;
-    gv_eval_row rows[GV_MAX_INTERVALS]; /* by increasing n */
-    gv_eval_row mean;                   /* over every frame (n = 0) */
-    int finished;
-    const gv_lpips *lpips;              /* AlexNet-LPIPS weights (lpips.h), or NULL: no LPIPS */
-} gv_eval_table;
-
-/* An empty table; lpips may be NULL (no LPIPS column). */
-void gv_eval_init(gv_eval_table *t, const gv_lpips *lpips);
-/* Adds a clip: its targets against its inputs (baseline) and against `restored` [5, H, W, 3]. */
-int gv_eval_add(gv_eval_table *t, const gv_clip *clip, const uint8_t *restored);
-/* Turns the sums into means (per row and overall). */
-void gv_eval_finish(gv_eval_table *t);
-/* The Markdown table: one row per n and the mean, baseline and restored PSNR / SSIM (/ LPIPS)
- * and the PSNR change. */
-void gv_eval_print_markdown(const gv_eval_table *t, FILE *out);
-/* JSON: {"baseline": {"psnr", "ssim", ["lpips",] "clips"}, "restored": {...}, "per_n": [{"n",
- * "clips", "baseline": {...}, "restored": {...}}], plus the `info` pairs (n_info, may be 0)}
- * written atomically. */
-int gv_eval_write_json(const gv_eval_table *t, const char *path, const char *const *info_keys,
-                       const char *const *info_values, int n_info);
-
 /* ---- whole runs (restore_run.c) ----------------------------------------------------------- */
 typedef struct {
     gv_sampler sampler;
@@ -147,13 +113,15 @@ typedef struct {
     int save_clips;                    /* restore: also <out>/<clip>.safetensors */
     int use_cache;                     /* dataset runs: the latent cache (1) or encode each clip */
     const char *vae_path;              /* for the cache's messages */
+    /* called with each restored clip [5, H, W, 3] (may be NULL), e.g. gv_eval_add_restored;
+     * what it writes into note (size bytes, empty at the call) is shown on the progress bar */
+    int (*each)(void *ctx, const gv_clip *clip, const uint8_t *restored, char *note, size_t size);
+    void *each_ctx;
 } gv_restore_options;
 
 /* Restores clip files (paths) or every clip of a dataset folder (dataset_dir, split), with a
- * progress bar; each restored clip is written (when out_dir) and added to table (may be NULL). */
-int gv_restore_files(gv_dit *m, gv_vae *vae, const char *const *paths, int n_paths, const gv_restore_options *o,
-                     gv_eval_table *table);
-int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_restore_options *o,
-                       gv_eval_table *table);
+ * progress bar; each restored clip is written (when out_dir) and handed to o->each. */
+int gv_restore_files(gv_dit *m, gv_vae *vae, const char *const *paths, int n_paths, const gv_restore_options *o);
+int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_restore_options *o);
 
 #endif

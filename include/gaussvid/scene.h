@@ -1,23 +1,12 @@
-/* A scene: the cameras and images of a multi-view capture, its sparse point cloud, and the
- * sparse split into training frames 0, n, 2n, ... and held-out frames.
- *
- * Camera convention (everywhere in the library): OpenCV/COLMAP, x right, y down, z forward;
- * a pose is world-to-camera, X_cam = R X_world + t; intrinsics in pixels with the principal
- * point in continuous coordinates (pixel (i, j) has its centre at (i + 0.5, j + 0.5)). */
+/* A scene: the cameras (camera.h) and images of a multi-view capture, its sparse point
+ * cloud, and the sparse split into training frames 0, n, 2n, ... and held-out frames. */
 #ifndef GAUSSVID_SCENE_H
 #define GAUSSVID_SCENE_H
 
 #include <stdint.h>
 
+#include "gaussvid/camera.h"
 #include "gaussvid/image.h"
-
-typedef struct {
-    int width, height;
-    double fx, fy, cx, cy;
-    double R[9];          /* world-to-camera rotation, row-major */
-    double t[3];          /* world-to-camera translation */
-    char name[256];       /* image file name relative to the scene's image folder */
-} gv_camera;
 
 typedef enum { GV_SCENE_FROM_COLMAP_BIN, GV_SCENE_FROM_COLMAP_TEXT, GV_SCENE_FROM_TRANSFORMS } gv_scene_source;
 

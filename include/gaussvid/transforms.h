@@ -2,7 +2,7 @@
  * nerfstudio / instant-ngp and the NeRF-synthetic (Blender) conventions, written in the
  * nerfstudio convention. Poses in the file are camera-to-world in OpenGL camera axes
  * (x right, y up, looking along -z); they are converted to the library's OpenCV
- * world-to-camera R, t (scene.h): negate the 2nd and 3rd columns of the rotation, invert.
+ * world-to-camera R, t (camera.h): negate the 2nd and 3rd columns of the rotation, invert.
  *
  * Intrinsics (pixels of the images the file_paths name) are looked up per frame first, then
  * at the top level: fl_x (else camera_angle_x: fx = w / (2 tan(camera_angle_x / 2))),
@@ -15,7 +15,7 @@
 #ifndef GAUSSVID_TRANSFORMS_H
 #define GAUSSVID_TRANSFORMS_H
 
-#include "gaussvid/scene.h"
+#include "gaussvid/camera.h"
 
 #define GV_TRANSFORMS_ROTATION_TOLERANCE 1e-3
 

@@ -132,7 +132,7 @@ int gv_vae_encode(gv_vae *v, const float *video, int frames, int height, int wid
 int gv_vae_decode(gv_vae *v, const float *latent, int latent_frames, int lh, int lw,
                   int normalized, int chunked, float *video);
 
-/* ---- residual decoding (model/vae_residual.c; docs/VAE.md) ------------------------------ */
+/* ---- residual decoding (model/vae.c; docs/VAE.md) -------------------------------------- */
 /* The restorer's frames as render + D(z_restored) - D(z_render), clamped to [-1, 1]: the
  * VAE's reconstruction error cancels where the restorer leaves the latent unchanged
  * (z_restored = z_render gives the render back bit for bit). render and out are [3, T, H, W]
@@ -140,6 +140,8 @@ int gv_vae_decode(gv_vae *v, const float *latent, int latent_frames, int lh, int
  * normalised when `normalized`; both are decoded one latent frame at a time (Wan). */
 int gv_vae_decode_residual(gv_vae *v, const float *render, const float *z_render, const float *z_restored,
                            int latent_frames, int lh, int lw, int normalized, float *out);
+/* out = clamp(render + restored - rendered, -1, 1) over n values (the step above). */
+void gv_vae_compose_residual(const float *render, const float *restored, const float *rendered, int64_t n, float *out);
 
 /* ---- the VACE context of a clip (model/vace_context.c; reference 3.3; DESIGN 6.3) -------- */
 /* [E(V (1 - M)) | E(V M) | M on the latent grid] for video V [3, T, H, W] in [-1, 1] and the

@@ -9,7 +9,7 @@
 #include "gaussvid/model_config.h"
 #include "gaussvid/vae.h"
 
-/* ---- frames of scenes (model/vae_data.c) ----------------------------------------------- */
+/* ---- frames of scenes (train/vae_data.c) ----------------------------------------------- */
 typedef struct {
     char dir[4096];
     int n_frames, width, height;  /* every frame of a scene has the same size */
@@ -32,7 +32,16 @@ void gv_vae_frames_free(gv_vae_frames *f);
 void gv_vae_clip_extract(const gv_vae_scene *s, int t0, int stride, int T, int x0, int y0, int w,
                          int h, int flip, float *out);
 
-/* ---- training (model/vae_train.c) -------------------------------------------------------
+/* Reconstruction quality of the VAE on held-out frames (gv_vae_evaluate, eval.h). */
+typedef struct {
+    int n_clips, n_frames;
+    double psnr, ssim;           /* means over frames, of images in [0, 1] */
+    double psnr_first;           /* frames encoded alone (the first of each clip) */
+    double psnr_grouped;         /* the other frames (encoded in groups of r) */
+    double seconds;
+} gv_vae_eval_result;
+
+/* ---- training (train/vae_train.c) -------------------------------------------------------
  * Objective (docs/VAE.md): mean |x^ - x| + l2_weight mean (x^ - x)^2 + kl_weight KL, with
  * x^ decoded from z = mu + sigma eps (eps ~ N(0, 1); z = mu when kl_weight is 0) and KL the
  * posterior's divergence from N(0, 1) summed over latent values and divided by the number of
@@ -58,6 +67,8 @@ typedef struct {
     const char *out;             /* weights; the checkpoint is out + ".ckpt" */
     const char *log_path;        /* tab-separated progress (may be NULL) */
     const char *config_spec;     /* written into the metadata (may be NULL) */
+    /* the held-out evaluation every eval_every steps (gv_vae_evaluate, eval.h; NULL: none) */
+    int (*evaluate)(gv_vae *v, const gv_vae_frames *f, int frames, int stride, int max_clips, gv_vae_eval_result *r);
 } gv_vae_train_options;
 
 void gv_vae_train_defaults(gv_vae_train_options *o);
@@ -66,45 +77,5 @@ void gv_vae_train_defaults(gv_vae_train_options *o);
  * over stats_clips clips of the training frames and writes the final weights with them. */
 int gv_vae_train(const gv_model_config *c, const gv_vae_frames *train, const gv_vae_frames *eval,
                  const gv_vae_train_options *o);
-
-/* ---- evaluation (model/vae_eval.c) -------------------------------------------------------- */
-typedef struct {
-    int n_clips, n_frames;
-    double psnr, ssim;           /* means over frames, of images in [0, 1] */
-    double psnr_first;           /* frames encoded alone (the first of each clip) */
-    double psnr_grouped;         /* the other frames (encoded in groups of r) */
-    double seconds;
-} gv_vae_eval_result;
-
-/* Reconstruction quality on clips of `frames` frames spaced by `stride`, full frames cropped
- * to multiples of the spatial factor, non-overlapping, at most max_clips per scene (0: all):
- * each clip is encoded (chunked, as Wan), decoded, clamped and compared with its frames. */
-int gv_vae_evaluate(gv_vae *v, const gv_vae_frames *f, int frames, int stride, int max_clips,
-                    gv_vae_eval_result *r);
-
-/* ---- residual decoding on dataset clips (model/vae_residual.c) ----------------------------
- * What the VAE costs a restorer on real inputs: per scored frame, the PSNR / SSIM against the
- * ground truth of the render itself (the sparse-3DGS baseline), of D(E(render)) (the render
- * through the VAE), of D(E(target)) (a perfect restorer, decoded plainly), of the residual
- * composition with z_restored = z_render (must equal the render: max_abs_same = 0) and with
- * z_restored = E(target) (a perfect restorer, decoded as a residual: the upper bound). */
-enum {
-    GV_VAE_RESIDUAL_RENDER, GV_VAE_RESIDUAL_VAE_RENDER, GV_VAE_RESIDUAL_VAE_TARGET, GV_VAE_RESIDUAL_SAME,
-    GV_VAE_RESIDUAL_UPPER, GV_VAE_RESIDUAL_KINDS
-};
-typedef struct {
-    int n_clips, n_frames;                  /* frames scored */
-    double psnr[GV_VAE_RESIDUAL_KINDS];     /* sums until gv_vae_residual_finish, then means */
-    double ssim[GV_VAE_RESIDUAL_KINDS];
-    double max_abs_same;                    /* largest |residual(z_render) - render| in [-1, 1] units */
-} gv_vae_residual_scores;
-
-/* Adds one clip: inputs (the renders, anchors included) and targets (ground truth) are 8-bit
- * [frames, height, width, 3]; frames t with score[t] != 0 are scored (the corrupted ones).
- * Frames are centre-cropped to multiples of the spatial factor, encoded chunked as Wan. */
-int gv_vae_residual_score_clip(gv_vae *v, const uint8_t *inputs, const uint8_t *targets, int frames, int height,
-                               int width, const int *score, gv_vae_residual_scores *s);
-/* Turns the sums into means over the scored frames. */
-void gv_vae_residual_finish(gv_vae_residual_scores *s);
 
 #endif

@@ -53,7 +53,8 @@ int cmd_eval(int argc, char **argv)
     const gv_lpips *net = gv_restore_cli_lpips(&c, &lpips, &failed);
     gv_eval_table table;
     gv_eval_init(&table, net);
-    int rc = failed ? -1 : gv_restore_dataset(&m, &vae, clips, &o, &table);
+    o.each = gv_eval_add_restored, o.each_ctx = &table;
+    int rc = failed ? -1 : gv_restore_dataset(&m, &vae, clips, &o);
     char text[256];
     gv_sampler_describe(&o.sampler, text, sizeof text);
     if (rc == 0) {

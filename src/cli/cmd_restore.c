@@ -119,10 +119,11 @@ int cmd_restore(int argc, char **argv)
     const gv_lpips *net = gv_restore_cli_lpips(&c, &lpips, &failed);
     gv_eval_table table;
     gv_eval_init(&table, net);
+    o.each = gv_eval_add_restored, o.each_ctx = &table;
     int rc = failed ? -1 : gv_mkdirs(out);
     if (rc == 0) {
         const char *paths[1] = {clip};
-        rc = clip ? gv_restore_files(&m, &vae, paths, 1, &o, &table) : gv_restore_dataset(&m, &vae, clips, &o, &table);
+        rc = clip ? gv_restore_files(&m, &vae, paths, 1, &o) : gv_restore_dataset(&m, &vae, clips, &o);
     }
     if (rc == 0) {
         char text[256];

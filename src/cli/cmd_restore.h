@@ -4,6 +4,7 @@
 #define GAUSSVID_CLI_CMD_RESTORE_H
 
 #include "gaussvid/checkpoint.h"
+#include "gaussvid/eval.h"
 #include "gaussvid/restore.h"
 
 typedef struct {

@@ -6,7 +6,7 @@
 #include "cli/cmd_vae.h"
 #include "cli/commands.h"
 #include "gaussvid/core.h"
-#include "gaussvid/vae_train.h"
+#include "gaussvid/eval.h"
 
 static void print_json_string(const char *s)
 {

@@ -12,7 +12,7 @@
 #include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/dataset.h"
-#include "gaussvid/vae_train.h"
+#include "gaussvid/eval.h"
 
 enum { MAX_CLIPS = 4096, MAX_INTERVALS = 64 };
 

@@ -6,7 +6,7 @@
 #include "cli/cmd_vae.h"
 #include "cli/commands.h"
 #include "gaussvid/core.h"
-#include "gaussvid/vae_train.h"
+#include "gaussvid/eval.h"
 
 /* "HxW" with both positive. */
 static int parse_size(const char *text, int *h, int *w)
@@ -82,7 +82,7 @@ int cmd_vae_train(int argc, char **argv)
     o.steps = steps;
     o.seed = (uint64_t)seed;
     o.checkpoint_every = ckpt;
-    o.eval_every = eval_every;
+    o.eval_every = eval_every, o.evaluate = gv_vae_evaluate;
     o.warmup = warmup;
     o.stop_after = stop_after;
     o.out = out;

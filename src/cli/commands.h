@@ -12,8 +12,6 @@ typedef struct {
 /* Runs the entry of `table` named by argv[1] (argv[0] is the group's name, e.g. "scene"),
  * or prints the group's help. */
 int gv_run_subcommand(const char *group, const gv_subcommand *table, int n, int argc, char **argv);
-/* Prints "gaussvid: <last error>" and returns 1. */
-int gv_report_failure(void);
 /* --crop RxC of pretrain and train: rows and columns of tokens, both positive. Returns 0, or
  * prints a usage line naming the command and returns 2. */
 int gv_parse_crop(const char *command, const char *text, int *rows, int *cols);

@@ -1,4 +1,4 @@
-/* Dispatch of command groups ("scene info", "splat train", ...) and failure reporting. */
+/* Dispatch of command groups ("scene info", "splat train", ...) and the --crop flag. */
 #include <stdio.h>
 #include <string.h>
 
@@ -20,12 +20,6 @@ int gv_run_subcommand(const char *group, const gv_subcommand *table, int n, int 
     for (int i = 0; i < n; i++) fprintf(out, "  %-8s %s\n", table[i].name, table[i].summary);
     fprintf(out, "\n'gaussvid %s SUBCOMMAND --help' describes one.\n", group);
     return argc < 2 ? 2 : 0;
-}
-
-int gv_report_failure(void)
-{
-    fprintf(stderr, "gaussvid: %s\n", gv_last_error());
-    return 1;
 }
 
 int gv_parse_crop(const char *command, const char *text, int *rows, int *cols)

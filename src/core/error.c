@@ -38,3 +38,9 @@ void gv_clear_error(void)
 {
     error_message[0] = '\0';
 }
+
+int gv_report_failure(void)
+{
+    fprintf(stderr, "gaussvid: %s\n", gv_last_error());
+    return 1;
+}

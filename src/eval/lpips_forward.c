@@ -6,18 +6,18 @@
  *   f_l = relu_l / (sqrt(sum_c relu_l^2) + 1e-10)  normalize_tensor, per pixel
  *   d = sum_l mean_{h,w} sum_c w_l[c] (f_l(a) - f_l(b))^2
  *
- * (dropout in the heads is the identity in eval mode). Convolutions are im2col + SGEMM over
+ * (dropout in the heads is the identity in eval mode). Convolutions are im2col + gv_gemm over
  * bands of output rows; every buffer belongs to the call, so concurrent calls on one net
  * only share the read-only weights. */
 #include "gaussvid/lpips.h"
 
-#include <cblas.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "eval/lpips_internal.h"
 #include "gaussvid/core.h"
+#include "gaussvid/ops.h"
 
 /* normalize_tensor's eps (lpips/__init__.py). */
 #define NORM_EPS 1e-10
@@ -127,8 +127,7 @@ static void conv_relu(const float *in, int H, int W, const gv_lpips_layer *L, co
     for (int y0 = 0; y0 < Ho; y0 += band) {
         int y1 = y0 + band < Ho ? y0 + band : Ho, n = (y1 - y0) * Wo;
         im2col_band(in, H, W, L, Wo, y0, y1, cols);
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, L->c_out, n, K, 1.0f, w, K,
-                    cols, n, 0.0f, out + (size_t)y0 * Wo, Ho * Wo);
+        gv_gemm(L->c_out, n, K, w, K, cols, n, out + (size_t)y0 * Wo, Ho * Wo);
     }
     size_t plane = (size_t)Ho * Wo;
 #pragma omp parallel for schedule(static) if ((size_t)L->c_out * plane > PARALLEL_MIN)

@@ -2,6 +2,7 @@
  * alone, then groups of the temporal factor r), the per-channel latent normalisation, and
  * the chunked mode that streams a clip through the causal caches as Wan does (the first
  * frame, then chunks of r frames to encode; one latent frame at a time to decode). */
+#include <stdlib.h>
 #include <string.h>
 
 #include "gaussvid/core.h"
@@ -154,5 +155,33 @@ int gv_vae_decode(gv_vae *v, const float *latent, int latent_frames, int lh, int
     }
     if (chunked) gv_vae_stream_free(&stream);
     gv_graph_free(&g);
+    return rc;
+}
+
+/* Residual decoding (docs/VAE.md): out = clamp(render + restored - rendered, -1, 1) over n
+ * values. Where restored and rendered are equal the difference is exactly 0, so out is the
+ * render (already in [-1, 1]): the VAE's reconstruction error cancels. */
+void gv_vae_compose_residual(const float *render, const float *restored, const float *rendered, int64_t n, float *out)
+{
+    for (int64_t i = 0; i < n; i++) {
+        float a = render[i] + (restored[i] - rendered[i]);
+        out[i] = a < -1.0f ? -1.0f : a > 1.0f ? 1.0f : a;
+    }
+}
+
+int gv_vae_decode_residual(gv_vae *v, const float *render, const float *z_render, const float *z_restored,
+                           int latent_frames, int lh, int lw, int normalized, float *out)
+{
+    int s = v->cfg.spatial_factor, frames = 1 + v->cfg.temporal_factor * (latent_frames - 1);
+    if (latent_frames < 1 || lh < 1 || lw < 1)
+        return gv_fail("vae residual decode: bad latent size %d x %d x %d", latent_frames, lh, lw);
+    int64_t n = 3LL * frames * (int64_t)(s * lh) * (s * lw);
+    float *a = malloc((size_t)n * sizeof *a), *b = malloc((size_t)n * sizeof *b);
+    int rc = a && b ? 0 : gv_fail("vae residual decode: out of memory for two %lld-value clips", (long long)n);
+    if (rc == 0) rc = gv_vae_decode(v, z_restored, latent_frames, lh, lw, normalized, 1, a);
+    if (rc == 0) rc = gv_vae_decode(v, z_render, latent_frames, lh, lw, normalized, 1, b);
+    if (rc == 0) gv_vae_compose_residual(render, a, b, n, out);
+    free(a);
+    free(b);
     return rc;
 }

@@ -61,6 +61,11 @@ int gv_matmul_op_backward(gv_graph *g, gv_tensor *out)
     return 0;
 }
 
+void gv_gemm(int M, int N, int K, const float *A, int lda, const float *B, int ldb, float *C, int ldc)
+{
+    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, M, N, K, 1.0f, A, lda, B, ldb, 0.0f, C, ldc);
+}
+
 gv_tensor *gv_matmul(gv_graph *g, gv_tensor *a, gv_tensor *b, int trans_a, int trans_b)
 {
     if (!a || !b) return NULL;

@@ -1,6 +1,6 @@
 /* Restoring clip files or a dataset folder (restore.h): conditioning (from the latent cache
  * when asked), sampling, composition, the restored frames written as PNGs and optionally as a
- * clip file, and each clip added to the evaluation table. */
+ * clip file, and each restored clip handed to the caller (e.g. an evaluation table). */
 #include <stdlib.h>
 #include <string.h>
 
@@ -35,9 +35,9 @@ static int write_outputs(const char *out_dir, const char *stem, const gv_clip *c
     return gv_clip_write(path, &restored);
 }
 
-/* One clip: latents l (NULL: prepared here), restored, written, evaluated. */
+/* One clip: latents l (NULL: prepared here), restored, written, handed to o->each. */
 static int restore_one(gv_dit *m, gv_vae *vae, const gv_clip *clip, const char *name, const gv_clip_latents *given,
-                       const gv_restore_options *o, gv_eval_table *table)
+                       const gv_restore_options *o, char *note, size_t note_size)
 {
     gv_clip_latents own;
     const gv_clip_latents *l = given;
@@ -56,27 +56,25 @@ static int restore_one(gv_dit *m, gv_vae *vae, const gv_clip *clip, const char *
         clip_stem(name, stem, sizeof stem);
         rc = write_outputs(o->out_dir, stem, clip, frames, o->save_clips);
     }
-    if (rc == 0 && table) rc = gv_eval_add(table, clip, frames);
+    if (rc == 0 && o->each) rc = o->each(o->each_ctx, clip, frames, note, note_size);
     free(z), free(frames);
     if (!given) gv_clip_latents_free(&own);
     return rc;
 }
 
-static void progress_note(gv_progress *bar, long done, const gv_eval_table *t)
+static void progress_note(gv_progress *bar, long done, const char *note)
 {
-    if (t && t->mean.frames)
-        gv_progress_update(bar, done, "PSNR %+.2f dB", (t->mean.psnr_rest - t->mean.psnr_base) / t->mean.frames);
-    else
-        gv_progress_update(bar, done, NULL);
+    if (note[0]) gv_progress_update(bar, done, "%s", note);
+    else gv_progress_update(bar, done, NULL);
 }
 
-int gv_restore_files(gv_dit *m, gv_vae *vae, const char *const *paths, int n_paths, const gv_restore_options *o,
-                     gv_eval_table *table)
+int gv_restore_files(gv_dit *m, gv_vae *vae, const char *const *paths, int n_paths, const gv_restore_options *o)
 {
     if (gv_sampler_check(&o->sampler)) return -1;
     gv_progress bar;
     gv_progress_start(&bar, "restore", n_paths);
     int rc = 0;
+    char note[64] = ""; /* o->each's last note */
     for (int i = 0; rc == 0 && i < n_paths; i++) {
         gv_clip clip;
         if (gv_clip_read(paths[i], &clip)) {
@@ -85,17 +83,16 @@ int gv_restore_files(gv_dit *m, gv_vae *vae, const char *const *paths, int n_pat
         }
         char name[512];
         clip_stem(paths[i], name, sizeof name);
-        rc = restore_one(m, vae, &clip, name, NULL, o, table);
+        rc = restore_one(m, vae, &clip, name, NULL, o, note, sizeof note);
         gv_clip_free(&clip);
         if (rc) gv_fail_context("%s", paths[i]);
-        progress_note(&bar, i + 1, table);
+        progress_note(&bar, i + 1, note);
     }
     gv_progress_finish(&bar);
     return rc;
 }
 
-int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_restore_options *o,
-                       gv_eval_table *table)
+int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_restore_options *o)
 {
     if (gv_sampler_check(&o->sampler)) return -1;
     gv_latent_set set;
@@ -116,6 +113,7 @@ int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv
     gv_progress bar;
     gv_progress_start(&bar, "restore", total);
     int done = 0;
+    char note[64] = ""; /* o->each's last note */
     for (int i = 0; rc == 0 && i < (o->use_cache ? set.count : man.n_clips); i++) {
         if (!o->use_cache && o->split && strcmp(man.clips[i].split, o->split)) continue;
         const char *name = o->use_cache ? set.names[i] : man.clips[i].file;
@@ -127,10 +125,10 @@ int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv
         }
         char stem[512];
         clip_stem(name, stem, sizeof stem);
-        rc = restore_one(m, vae, &clip, stem, o->use_cache ? &set.clips[i] : NULL, o, table);
+        rc = restore_one(m, vae, &clip, stem, o->use_cache ? &set.clips[i] : NULL, o, note, sizeof note);
         gv_clip_free(&clip);
         if (rc) gv_fail_context("%s", path);
-        progress_note(&bar, ++done, table);
+        progress_note(&bar, ++done, note);
     }
     gv_progress_finish(&bar);
     gv_latent_set_free(&set);

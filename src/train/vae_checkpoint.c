@@ -10,7 +10,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/safetensors.h"
 #include "gaussvid/weight_names.h"
-#include "model/vae_train_internal.h"
+#include "train/vae_train_internal.h"
 
 /* The options a resumed run must share with the first (steps may grow). */
 static void options_text(const gv_vae_train_options *o, char *out, size_t size)

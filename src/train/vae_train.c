@@ -12,7 +12,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/nn.h"
 #include "gaussvid/vae_train.h"
-#include "model/vae_train_internal.h"
+#include "train/vae_train_internal.h"
 
 void gv_vae_train_defaults(gv_vae_train_options *o)
 {
@@ -190,8 +190,8 @@ int gv_vae_train(const gv_model_config *c, const gv_vae_frames *train, const gv_
         avg_mse += a * (mse - avg_mse);
         gv_progress_update(&bar, step + 1 - start, "step %ld  loss %.4f  psnr %.2f dB", step + 1, avg_loss, psnr_of(avg_mse));
         gv_vae_eval_result e, *ep = NULL;
-        if (eval && o->eval_every > 0 && ((step + 1) % o->eval_every == 0 || step + 1 == o->steps)) {
-            if ((rc = gv_vae_evaluate(&v, eval, o->frames, 1, o->eval_clips, &e))) break;
+        if (eval && o->evaluate && o->eval_every > 0 && ((step + 1) % o->eval_every == 0 || step + 1 == o->steps)) {
+            if ((rc = o->evaluate(&v, eval, o->frames, 1, o->eval_clips, &e))) break;
             ep = &e;
             gv_info("vae train: step %ld: held-out PSNR %.2f dB, SSIM %.4f (%d frames)", step + 1, e.psnr, e.ssim, e.n_frames);
         }

@@ -1,43 +1,12 @@
-/* Residual decoding (docs/VAE.md "Residual decoding"): the restorer's output frames are
- *     restored = render + D(z_restored) - D(z_render)
- * instead of D(z_restored), so that the VAE's reconstruction error cancels wherever the
- * restorer leaves the latent as it found it (z_restored = z_render gives the render back bit
- * for bit) and the VAE caps only the change the restorer makes, not the whole frame. The
- * scorer measures it on dataset clips against the plain decode, with a perfect restorer
- * (z_restored = E(ground truth)) as the upper bound. */
+/* What residual decoding (gv_vae_decode_residual, docs/VAE.md "Residual decoding") gives on
+ * dataset clips against the plain decode, with a perfect restorer (z_restored = E(ground
+ * truth)) as the upper bound. */
 #include <stdlib.h>
 #include <string.h>
 
 #include "gaussvid/core.h"
 #include "gaussvid/metrics.h"
-#include "gaussvid/vae_train.h"
-
-/* out = clamp(render + restored - rendered, -1, 1) over n values. When restored and rendered
- * are equal the difference is exactly 0, so out is the render (already in [-1, 1]). */
-static void compose(const float *render, const float *restored, const float *rendered, int64_t n, float *out)
-{
-    for (int64_t i = 0; i < n; i++) {
-        float a = render[i] + (restored[i] - rendered[i]);
-        out[i] = a < -1.0f ? -1.0f : a > 1.0f ? 1.0f : a;
-    }
-}
-
-int gv_vae_decode_residual(gv_vae *v, const float *render, const float *z_render, const float *z_restored,
-                           int latent_frames, int lh, int lw, int normalized, float *out)
-{
-    int s = v->cfg.spatial_factor, frames = 1 + v->cfg.temporal_factor * (latent_frames - 1);
-    if (latent_frames < 1 || lh < 1 || lw < 1)
-        return gv_fail("vae residual decode: bad latent size %d x %d x %d", latent_frames, lh, lw);
-    int64_t n = 3LL * frames * (int64_t)(s * lh) * (s * lw);
-    float *a = malloc((size_t)n * sizeof *a), *b = malloc((size_t)n * sizeof *b);
-    int rc = a && b ? 0 : gv_fail("vae residual decode: out of memory for two %lld-value clips", (long long)n);
-    if (rc == 0) rc = gv_vae_decode(v, z_restored, latent_frames, lh, lw, normalized, 1, a);
-    if (rc == 0) rc = gv_vae_decode(v, z_render, latent_frames, lh, lw, normalized, 1, b);
-    if (rc == 0) compose(render, a, b, n, out);
-    free(a);
-    free(b);
-    return rc;
-}
+#include "gaussvid/eval.h"
 
 /* 8-bit [T, H, W, 3] frames, the w x h window at (x0, y0), as [3, T, h, w] in [-1, 1]. */
 static void to_clip(const uint8_t *frames, int T, int H, int W, int x0, int y0, int h, int w, float *out)
@@ -80,8 +49,8 @@ typedef struct {
 static int score_all(const buffers *k, int T, int h, int w, const int *score, gv_vae_residual_scores *s)
 {
     int64_t n = 3LL * T * h * w;
-    compose(k->render, k->vae_render, k->vae_render, n, k->same);
-    compose(k->render, k->vae_target, k->vae_render, n, k->upper);
+    gv_vae_compose_residual(k->render, k->vae_render, k->vae_render, n, k->same);
+    gv_vae_compose_residual(k->render, k->vae_target, k->vae_render, n, k->upper);
     for (int64_t i = 0; i < n; i++) {
         double d = k->same[i] > k->render[i] ? k->same[i] - k->render[i] : k->render[i] - k->same[i];
         if (d > s->max_abs_same) s->max_abs_same = d;

@@ -9,8 +9,8 @@
 #include <cjson/cJSON.h>
 
 #include "gaussvid/core.h"
+#include "gaussvid/eval.h"
 #include "gaussvid/metrics.h"
-#include "gaussvid/restore.h"
 
 void gv_eval_init(gv_eval_table *t, const gv_lpips *lpips)
 {
@@ -60,6 +60,14 @@ int gv_eval_add(gv_eval_table *t, const gv_clip *clip, const uint8_t *restored)
         rows[k]->psnr_base += sums[0], rows[k]->ssim_base += sums[1], rows[k]->lpips_base += sums[2];
         rows[k]->psnr_rest += sums[3], rows[k]->ssim_rest += sums[4], rows[k]->lpips_rest += sums[5];
     }
+    return 0;
+}
+
+int gv_eval_add_restored(void *table, const gv_clip *clip, const uint8_t *restored, char *note, size_t size)
+{
+    gv_eval_table *t = table;
+    if (gv_eval_add(t, clip, restored)) return -1;
+    snprintf(note, size, "PSNR %+.2f dB", (t->mean.psnr_rest - t->mean.psnr_base) / t->mean.frames);
     return 0;
 }
 
