@@ -22,6 +22,7 @@ static void test_split(void)
     CHECK(gv_scene_split(10, 3, train, &nt, held, &nh) == 0);
     const int t3[4] = {0, 3, 6, 9}, h3[6] = {1, 2, 4, 5, 7, 8};
     CHECK(nt == 4 && nh == 6 && !memcmp(train, t3, sizeof t3) && !memcmp(held, h3, sizeof h3));
+    CHECK(gv_scene_is_train(0, 3) && gv_scene_is_train(9, 3) && !gv_scene_is_train(4, 3) && gv_scene_is_train(7, 1));
     CHECK(gv_scene_split(10, 1, train, &nt, held, &nh) == 0 && nt == 10 && nh == 0);
     CHECK(gv_scene_split(10, 9, train, &nt, held, &nh) == 0 && nt == 2 && train[1] == 9 && nh == 8);
     CHECK(gv_scene_split(160, 8, train, &nt, held, &nh) == 0 && nt == 20 && nh == 140);
