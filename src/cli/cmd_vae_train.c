@@ -17,17 +17,15 @@ static int parse_size(const char *text, int *h, int *w)
 
 int cmd_vae_train(int argc, char **argv)
 {
-    const char *scenes[VAE_MAX_SCENES], *eval_scenes[VAE_MAX_SCENES];
-    int n_scenes = 0, n_eval = 0;
-    int rc = vae_take_list("vae train", "scenes", &argc, argv, scenes, &n_scenes);
-    if (rc == 0) rc = vae_take_list("vae train", "eval-scenes", &argc, argv, eval_scenes, &n_eval);
-    if (rc) return rc;
+    gv_flag_list scenes = {.n = 0}, eval_scenes = {.n = 0};
     gv_vae_train_options o;
     gv_vae_train_defaults(&o);
     const char *config = "small", *crop = "64x64", *out = NULL, *log = NULL;
     int steps = (int)o.steps, seed = 0, downscale = 1, ckpt = (int)o.checkpoint_every, eval_every = 0;
     int warmup = (int)o.warmup, stop_after = 0;
     const gv_flag flags[] = {
+        {"scenes", GV_FLAG_LIST, &scenes, "DIR...", "scene folders to train on (COLMAP sparse/0 or transforms.json)", 1},
+        {"eval-scenes", GV_FLAG_LIST, &eval_scenes, "DIR...", "scene folders of the held-out evaluation", 0},
         {"config", GV_FLAG_STRING, &config, "PRESET|FILE", "model config whose VAE is trained (default small)", 0},
         {"out", GV_FLAG_STRING, &out, "FILE", "the weights (.safetensors); the checkpoint is FILE.ckpt", 1},
         {"steps", GV_FLAG_INT, &steps, "N", "optimiser steps (default 2000)", 0},
@@ -54,28 +52,22 @@ int cmd_vae_train(int argc, char **argv)
     };
     const gv_command_spec spec = {
         "vae train", NULL, "train the VAE of a config on scene frames",
-        "--scenes DIR... (required) and --eval-scenes DIR... take one or more scene folders\n"
-        "(COLMAP sparse/0 or transforms.json) and may be repeated. Each step draws random\n"
-        "crops of clips (frame spacing 1..--max-stride, mirrored and reversed at random);\n"
-        "loss = L1 + l2-weight * L2 on pixels + kl-weight * KL (sum over latent values per\n"
-        "pixel value). AdamW, warm-up then cosine decay, gradient norm clipped to 1. The\n"
-        "weights and the checkpoint FILE.ckpt are written every --checkpoint-every steps;\n"
-        "--resume continues from the checkpoint (same options give the same steps). At the\n"
-        "end the latent per-channel mean and std are computed on training clips and stored\n"
-        "in the weights' metadata. Single-threaded runs are often faster on a busy machine\n"
+        "Each step draws random crops of clips (frame spacing 1..--max-stride, mirrored and\n"
+        "reversed at random); loss = L1 + l2-weight * L2 on pixels + kl-weight * KL (sum over\n"
+        "latent values per pixel value). AdamW, warm-up then cosine decay, gradient norm clipped\n"
+        "to 1. The weights and the checkpoint FILE.ckpt are written every --checkpoint-every\n"
+        "steps; --resume continues from the checkpoint (same options give the same steps). At the\n"
+        "end the latent per-channel mean and std are computed on training clips and stored in the\n"
+        "weights' metadata. Single-threaded runs are often faster on a busy machine\n"
         "(--threads 1). See docs/VAE.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
-    if (n_scenes == 0) {
-        fprintf(stderr, "gaussvid vae train: --scenes DIR... is required\n");
-        return 2;
-    }
     if (parse_size(crop, &o.crop_h, &o.crop_w) || steps < 1 || seed < 0 || ckpt < 1 || eval_every < 0 || warmup < 0 || stop_after < 0) {
         fprintf(stderr, "gaussvid vae train: --crop needs HxW; --steps and --checkpoint-every positive; --seed, --warmup, --eval-every non-negative\n");
         return 2;
     }
-    if (eval_every > 0 && n_eval == 0) {
+    if (eval_every > 0 && eval_scenes.n == 0) {
         fprintf(stderr, "gaussvid vae train: --eval-every needs --eval-scenes\n");
         return 2;
     }
@@ -93,15 +85,15 @@ int cmd_vae_train(int argc, char **argv)
     if (gv_model_config_load(&c, config)) return gv_report_failure();
     gv_vae_frames train, eval;
     memset(&eval, 0, sizeof eval);
-    if (gv_vae_frames_load(&train, scenes, n_scenes, downscale)) return gv_report_failure();
-    if (n_eval && gv_vae_frames_load(&eval, eval_scenes, n_eval, downscale)) {
+    if (gv_vae_frames_load(&train, scenes.items, scenes.n, downscale)) return gv_report_failure();
+    if (eval_scenes.n && gv_vae_frames_load(&eval, eval_scenes.items, eval_scenes.n, downscale)) {
         gv_vae_frames_free(&train);
         return gv_report_failure();
     }
     gv_info("vae train: %s VAE, %lld frames of %d scene(s), %ld steps of %d x %d-frame %dx%d crops", c.name,
             (long long)train.total_frames, train.n, o.steps, o.batch, o.frames, o.crop_w, o.crop_h);
     double start = gv_now();
-    rc = gv_vae_train(&c, &train, n_eval ? &eval : NULL, &o);
+    int rc = gv_vae_train(&c, &train, eval_scenes.n ? &eval : NULL, &o);
     gv_vae_frames_free(&train);
     gv_vae_frames_free(&eval);
     if (rc) return gv_report_failure();
