@@ -24,10 +24,9 @@ int cmd_pretrain(int argc, char **argv)
          "share of samples whose VACE context also holds the clip's renders (default 0)", 0},
         {"crop", GV_FLAG_STRING, &crop, "RxC", "train each sample on a random window of R x C tokens of its clip (default: the whole clip)", 0},
     };
-    enum { N_OWN = sizeof own / sizeof own[0] };
-    gv_flag flags[N_OWN + GV_RUN_CLI_FLAGS];
-    memcpy(flags, own, sizeof own);
-    gv_run_cli_flags(&run, "the base checkpoint; FILE.ckpt holds the resumable state", flags + N_OWN);
+    gv_flag flags[sizeof own / sizeof own[0] + GV_RUN_CLI_FLAGS];
+    int n_flags = gv_run_cli_flags(&run, "the base checkpoint; FILE.ckpt holds the resumable state", own,
+                                   sizeof own / sizeof own[0], flags);
     const gv_command_spec spec = {
         "pretrain", NULL, "pretrain the base first-last-frame video model on clean clips",
         "Standard flow matching (reference wan-vace-gaussvid.md 5.5): x_t = (1 - t) z0 + t eps on\n"
@@ -41,7 +40,7 @@ int cmd_pretrain(int argc, char **argv)
         "Every tensor is trained (no LoRA). The clips are encoded once by --vae and cached in\n"
         "the dataset folder. The base keeps the config's LoRA rank in its metadata for\n"
         "`gaussvid train`. See docs/TRAINING.md.",
-        flags, sizeof flags / sizeof flags[0], 0, 0};
+        flags, n_flags, 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
     if (gv_run_cli_check(&run, "pretrain")) return 2;

@@ -8,7 +8,7 @@
 #include "cli/cmd_train.h"
 #include "cli/commands.h"
 
-void gv_run_cli_flags(gv_run_cli *r, const char *out_help, gv_flag *f)
+int gv_run_cli_flags(gv_run_cli *r, const char *out_help, const gv_flag *own, int n_own, gv_flag *f)
 {
     snprintf(r->help[0], sizeof r->help[0], "optimiser steps (default %d)", r->steps);
     snprintf(r->help[1], sizeof r->help[1], "clips per step (default %d)", r->batch);
@@ -27,7 +27,9 @@ void gv_run_cli_flags(gv_run_cli *r, const char *out_help, gv_flag *f)
         {"stop-after", GV_FLAG_INT, &r->stop_after, "N", "end this run after step N (continue later with --resume)", 0},
         {"log", GV_FLAG_STRING, &r->log, "FILE", "tab-separated log, a line per step", 0},
     };
-    memcpy(f, flags, sizeof flags);
+    memcpy(f, own, (size_t)n_own * sizeof *own);
+    memcpy(f + n_own, flags, sizeof flags);
+    return n_own + GV_RUN_CLI_FLAGS;
 }
 
 int gv_run_cli_check(const gv_run_cli *r, const char *command)
@@ -99,10 +101,9 @@ int cmd_train(int argc, char **argv)
         {"val-every", GV_FLAG_INT, &val_every, "K", "steps between validations (default: the checkpoint interval)", 0},
         {"val-log", GV_FLAG_STRING, &val_log, "FILE", "tab-separated validation log: step, n, clips, loss, identity", 0},
     };
-    enum { N_OWN = sizeof own / sizeof own[0] };
-    gv_flag flags[N_OWN + GV_RUN_CLI_FLAGS];
-    memcpy(flags, own, sizeof own);
-    gv_run_cli_flags(&run, "the fine-tuned checkpoint; FILE.ckpt holds the resumable state", flags + N_OWN);
+    gv_flag flags[sizeof own / sizeof own[0] + GV_RUN_CLI_FLAGS];
+    int n_flags = gv_run_cli_flags(&run, "the fine-tuned checkpoint; FILE.ckpt holds the resumable state", own,
+                                   sizeof own / sizeof own[0], flags);
     const gv_command_spec spec = {
         "train", NULL, "GaussVid fine-tuning of a base model (LoRA + camera encoder)",
         "Objective (paper 3.4): x_t = (1 - t) z-hat + t eps from the corrupted clip's latent,\n"
@@ -114,7 +115,7 @@ int cmd_train(int argc, char **argv)
         "The output holds the base weights too, so it loads alone. With --val-clips the loss on\n"
         "unseen clips (fixed draws) is shown beside the identity's, the loss of leaving the\n"
         "renders unchanged: below it, the network restores. See docs/TRAINING.md.",
-        flags, sizeof flags / sizeof flags[0], 0, 0};
+        flags, n_flags, 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
     if (gv_run_cli_check(&run, "train")) return 2;

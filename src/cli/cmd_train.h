@@ -14,9 +14,9 @@ typedef struct {
 
 #define GV_RUN_CLI_FLAGS 10
 
-/* Fills flags[0..GV_RUN_CLI_FLAGS) for r, whose values are the defaults the help shows;
- * out_help describes --out. */
-void gv_run_cli_flags(gv_run_cli *r, const char *out_help, gv_flag *flags);
+/* flags = the command's own n_own flags, then GV_RUN_CLI_FLAGS for r, whose values are the
+ * defaults the help shows (out_help describes --out); returns the count. */
+int gv_run_cli_flags(gv_run_cli *r, const char *out_help, const gv_flag *own, int n_own, gv_flag *flags);
 /* 0, or 2 after a usage line naming the command when a value is out of range. */
 int gv_run_cli_check(const gv_run_cli *r, const char *command);
 /* r's values into a run's options. */

@@ -40,10 +40,9 @@ int cmd_vae_train(int argc, char **argv)
         {"stats-clips", GV_FLAG_INT, &o.stats_clips, "N", "clips for the latent mean/std (default 64)", 0},
         {"downscale", GV_FLAG_INT, &downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
     };
-    enum { N_OWN = sizeof own / sizeof own[0] };
-    gv_flag flags[N_OWN + GV_RUN_CLI_FLAGS];
-    memcpy(flags, own, sizeof own);
-    gv_run_cli_flags(&run, "the weights (.safetensors); the checkpoint is FILE.ckpt", flags + N_OWN);
+    gv_flag flags[sizeof own / sizeof own[0] + GV_RUN_CLI_FLAGS];
+    int n_flags = gv_run_cli_flags(&run, "the weights (.safetensors); the checkpoint is FILE.ckpt", own,
+                                   sizeof own / sizeof own[0], flags);
     const gv_command_spec spec = {
         "vae train", NULL, "train the VAE of a config on scene frames",
         "Each step draws random crops of clips (frame spacing 1..--max-stride, mirrored and\n"
@@ -54,7 +53,7 @@ int cmd_vae_train(int argc, char **argv)
         "end the latent per-channel mean and std are computed on training clips and stored in the\n"
         "weights' metadata. Single-threaded runs are often faster on a busy machine\n"
         "(--threads 1). See docs/VAE.md.",
-        flags, sizeof flags / sizeof flags[0], 0, 0};
+        flags, n_flags, 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
     if (gv_run_cli_check(&run, "vae train")) return 2;
