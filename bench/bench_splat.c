@@ -160,7 +160,7 @@ static int evaluate(const gv_splat_trainer *t, const gv_scene *scene, int interv
     int nh = 0, nt = 0;
     res->held_psnr = res->held_ssim = res->train_psnr = res->train_ssim = 0;
     for (int i = 0; i < n && ok == 0; i++) {
-        if (i % interval == 0) res->train_psnr += m[i].psnr, res->train_ssim += m[i].ssim, nt++;
+        if (gv_scene_is_train(i, interval)) res->train_psnr += m[i].psnr, res->train_ssim += m[i].ssim, nt++;
         else res->held_psnr += m[i].psnr, res->held_ssim += m[i].ssim, nh++;
     }
     if (nt) res->train_psnr /= nt, res->train_ssim /= nt;

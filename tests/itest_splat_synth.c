@@ -28,7 +28,7 @@ static int train_and_evaluate(const gv_scene *scene, int interval, gv_splat_dens
     memset(out, 0, sizeof *out);
     int n_train = 0, n_held = 0;
     for (int i = 0; i < n && ok == 0; i++) {
-        if (i % interval == 0) out->train_psnr += m[i].psnr, n_train++;
+        if (gv_scene_is_train(i, interval)) out->train_psnr += m[i].psnr, n_train++;
         else out->held_psnr += m[i].psnr, out->held_ssim += m[i].ssim, n_held++;
     }
     out->train_psnr /= n_train, out->held_psnr /= n_held, out->held_ssim /= n_held;

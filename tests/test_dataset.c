@@ -11,8 +11,6 @@
 
 /* ---- sampling ----------------------------------------------------------------------- */
 
-static int is_training(int f, int n) { return f % n == 0; }
-
 /* The uniform rule for anchor gap 1 written independently: nearbyint rounds half to even
  * in the default rounding mode, like Python's round. With gap 1 no position can land on a
  * training view for n >= 4, so no frame moves. */
@@ -27,7 +25,7 @@ static void test_uniform_gap1(void)
             ok &= f[0] == s && f[4] == s + n;
             for (int j = 1; j <= 3; j++) {
                 ok &= f[j] == (int)nearbyint(s + j * n / 4.0);
-                ok &= !is_training(f[j], n) && f[j] > f[j - 1];
+                ok &= !gv_scene_is_train(f[j], n) && f[j] > f[j - 1];
                 ok &= fabs(f[j] - (s + j * n / 4.0)) <= 0.5; /* uniformly spaced, rounded */
             }
         }
@@ -68,9 +66,9 @@ static void test_uniform_wide_gap(void)
             int total = 3 * g * n + 1;
             for (int s = 0; s + g * n < total; s += n) {
                 if (gv_clip_frames(total, n, g, GV_SAMPLING_UNIFORM, s, NULL, f) != 0) { ok = 0; continue; }
-                ok &= f[0] == s && f[4] == s + g * n && is_training(f[0], n) && is_training(f[4], n);
+                ok &= f[0] == s && f[4] == s + g * n && gv_scene_is_train(f[0], n) && gv_scene_is_train(f[4], n);
                 for (int j = 1; j <= 3; j++)
-                    ok &= !is_training(f[j], n) && f[j] > f[j - 1] && f[j] < f[4] &&
+                    ok &= !gv_scene_is_train(f[j], n) && f[j] > f[j - 1] && f[j] < f[4] &&
                           fabs(f[j] - (s + j * g * n / 4.0)) <= n / 2.0 + 1;
             }
         }
@@ -103,7 +101,7 @@ static void test_random(void)
         if (gv_clip_frames(100, 6, 1, GV_SAMPLING_RANDOM, 12, &rng, f) != 0) { ok = 0; break; }
         ok &= f[0] == 12 && f[4] == 18;
         for (int j = 1; j <= 3; j++) {
-            ok &= f[j] > f[j - 1] && f[j] < 18 && !is_training(f[j], 6);
+            ok &= f[j] > f[j - 1] && f[j] < 18 && !gv_scene_is_train(f[j], 6);
             hits[f[j] - 12]++;
         }
     }
@@ -116,7 +114,7 @@ static void test_random(void)
         int f[5];
         ok &= gv_clip_frames(100, 5, 3, GV_SAMPLING_RANDOM, 20, &rng, f) == 0 && f[0] == 20 &&
               f[4] == 35 && f[1] > 20 && f[3] < 35 && f[1] < f[2] && f[2] < f[3] &&
-              !is_training(f[1], 5) && !is_training(f[2], 5) && !is_training(f[3], 5);
+              !gv_scene_is_train(f[1], 5) && !gv_scene_is_train(f[2], 5) && !gv_scene_is_train(f[3], 5);
     }
     CHECK(ok);
     CHECK_FAILS_WITH(gv_clip_frames(100, 6, 1, GV_SAMPLING_RANDOM, 12, NULL, (int[5]){0}), "random");

@@ -81,11 +81,19 @@ int gv_write_text_atomic(const char *path, const char *text);
 /* ---- Command-line flags -------------------------------------------------------------
  * Every subcommand declares its flags in a table; the parser handles --help, --quiet and
  * --threads for all of them, so flags look and behave the same everywhere. */
-typedef enum { GV_FLAG_BOOL, GV_FLAG_INT, GV_FLAG_DOUBLE, GV_FLAG_STRING } gv_flag_type;
+typedef enum { GV_FLAG_BOOL, GV_FLAG_INT, GV_FLAG_DOUBLE, GV_FLAG_STRING, GV_FLAG_LIST } gv_flag_type;
+/* The values of a list flag: "--name A B ..." takes every value up to the next option, and
+ * "--name=A" one; the flag may be repeated and each value may be a comma-separated list. The
+ * items point into argv (split in place at the commas). */
+#define GV_FLAG_LIST_MAX 1024
+typedef struct {
+    const char *items[GV_FLAG_LIST_MAX];
+    int n;
+} gv_flag_list;
 typedef struct {
     const char *name;   /* without the leading "--" */
     gv_flag_type type;
-    void *value;        /* int*, int*, double*, const char** */
+    void *value;        /* int*, int*, double*, const char**, gv_flag_list* */
     const char *meta;   /* value placeholder for the help, e.g. "DIR" */
     const char *help;
     int required;

@@ -42,19 +42,15 @@ int cmd_eval(int argc, char **argv)
     gv_restore_options o;
     if (gv_restore_cli_options(&c, &o)) return gv_restore_cli_usage("eval", gv_last_error());
 
-    gv_dit m;
-    gv_vae vae;
-    gv_model_config cfg;
-    char vae_path[4200];
-    if (gv_restore_cli_load(c.ckpt, &m, &vae, &cfg, vae_path, sizeof vae_path)) return gv_report_failure();
-    o.vae_path = vae_path;
+    gv_restorer r;
+    if (gv_restore_cli_load(c.ckpt, &r)) return gv_report_failure();
     gv_lpips lpips;
     int failed;
     const gv_lpips *net = gv_restore_cli_lpips(&c, &lpips, &failed);
     gv_eval_table table;
     gv_eval_init(&table, net);
     o.each = gv_eval_add_restored, o.each_ctx = &table;
-    int rc = failed ? -1 : gv_restore_dataset(&m, &vae, clips, &o);
+    int rc = failed ? -1 : gv_restore_dataset(&r, clips, &o);
     char text[256];
     gv_sampler_describe(&o.sampler, text, sizeof text);
     if (rc == 0) {
@@ -78,7 +74,6 @@ int cmd_eval(int argc, char **argv)
         else printf("\nidentity check passed: restored = baseline for every n\n");
     }
     gv_lpips_free(&lpips);
-    gv_dit_free(&m);
-    gv_vae_free(&vae);
+    gv_restorer_free(&r);
     return rc == 0 ? 0 : gv_report_failure();
 }

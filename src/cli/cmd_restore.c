@@ -67,14 +67,10 @@ int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o)
     return 0;
 }
 
-int gv_restore_cli_load(const char *ckpt, gv_dit *m, gv_vae *vae, gv_model_config *cfg, char *vae_path, size_t size)
+int gv_restore_cli_load(const char *ckpt, gv_restorer *r)
 {
-    gv_train_state state;
-    gv_model_config info;
-    if (gv_checkpoint_read_info(ckpt, &info, &state) || gv_checkpoint_load(ckpt, m, vae, cfg)) return -1;
-    if (gv_checkpoint_vae_path(ckpt, &state, vae_path, size)) snprintf(vae_path, size, "%s", ckpt);
-    gv_clear_error();
-    gv_info("%s: %s checkpoint of %s, step %ld of %ld", ckpt, state.kind, cfg->name, state.step, state.steps);
+    if (gv_restorer_load(ckpt, r)) return -1;
+    gv_info("%s: %s checkpoint of %s, step %ld of %ld", ckpt, r->state.kind, r->cfg.name, r->state.step, r->state.steps);
     return 0;
 }
 
@@ -108,12 +104,9 @@ int cmd_restore(int argc, char **argv)
     if (gv_restore_cli_options(&c, &o)) return gv_restore_cli_usage("restore", gv_last_error());
     if (clip && c.split) return gv_restore_cli_usage("restore", "--split goes with --clips");
 
-    gv_dit m;
-    gv_vae vae;
-    gv_model_config cfg;
-    char vae_path[4200];
-    if (gv_restore_cli_load(c.ckpt, &m, &vae, &cfg, vae_path, sizeof vae_path)) return gv_report_failure();
-    o.out_dir = out, o.save_clips = save_clips, o.vae_path = vae_path;
+    gv_restorer r;
+    if (gv_restore_cli_load(c.ckpt, &r)) return gv_report_failure();
+    o.out_dir = out, o.save_clips = save_clips;
     gv_lpips lpips;
     int failed;
     const gv_lpips *net = gv_restore_cli_lpips(&c, &lpips, &failed);
@@ -123,7 +116,7 @@ int cmd_restore(int argc, char **argv)
     int rc = failed ? -1 : gv_mkdirs(out);
     if (rc == 0) {
         const char *paths[1] = {clip};
-        rc = clip ? gv_restore_files(&m, &vae, paths, 1, &o) : gv_restore_dataset(&m, &vae, clips, &o);
+        rc = clip ? gv_restore_files(&r, paths, 1, &o) : gv_restore_dataset(&r, clips, &o);
     }
     if (rc == 0) {
         char text[256];
@@ -133,7 +126,6 @@ int cmd_restore(int argc, char **argv)
         gv_eval_print_markdown(&table, stdout);
     }
     gv_lpips_free(&lpips);
-    gv_dit_free(&m);
-    gv_vae_free(&vae);
+    gv_restorer_free(&r);
     return rc == 0 ? 0 : gv_report_failure();
 }

@@ -19,9 +19,8 @@ typedef struct {
 void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *flags, const char *split_help);
 /* The restore options of the flags; fails (a usage error) naming the flag. */
 int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o);
-/* Loads the checkpoint's network (frozen) and VAE; vae_path receives the VAE file it names
- * (or the checkpoint itself when it holds the VAE). */
-int gv_restore_cli_load(const char *ckpt, gv_dit *m, gv_vae *vae, gv_model_config *cfg, char *vae_path, size_t size);
+/* Loads the checkpoint (gv_restorer_load) and says what it is. */
+int gv_restore_cli_load(const char *ckpt, gv_restorer *r);
 /* Loads the LPIPS weights of --lpips into net and returns it, or NULL without the flag;
  * *failed is set when the file does not load. */
 const gv_lpips *gv_restore_cli_lpips(const gv_restore_cli *c, gv_lpips *net, int *failed);

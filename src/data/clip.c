@@ -68,11 +68,11 @@ int gv_clip_check_info(const gv_clip_info *info, const char *what)
     for (int i = 1; i < GV_CLIP_FRAMES; i++)
         if (fr[i] <= fr[i - 1])
             return gv_fail("%s: frame_indices are not strictly increasing", what);
-    if (fr[0] < 0 || fr[0] % info->n || (long)fr[4] - fr[0] != (long)info->anchor_gap * info->n)
+    if (fr[0] < 0 || !gv_scene_is_train(fr[0], info->n) || (long)fr[4] - fr[0] != (long)info->anchor_gap * info->n)
         return gv_fail("%s: anchors %d and %d are not training views %d * n apart (n = %d)",
                        what, fr[0], fr[4], info->anchor_gap, info->n);
     for (int i = 1; i < 4; i++)
-        if (fr[i] % info->n == 0)
+        if (gv_scene_is_train(fr[i], info->n))
             return gv_fail("%s: intermediate frame %d is a training view (n = %d)", what, fr[i],
                            info->n);
     return 0;
