@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "gaussvid/condition.h"
 #include "gaussvid/core.h"
@@ -62,6 +63,9 @@ int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state 
     const char *json = gv_st_metadata(f, "config");
     if (!json) return gv_fail("%s: metadata config is missing", f->path);
     if (gv_model_config_parse(cfg, json, f->path)) return -1;
+    /* every checkpoint holds the DiT and VACE: refuse a config the file cannot hold before
+     * anyone builds its network (issue 25) */
+    if (gv_weights_fit(cfg, GV_PART_DIT | GV_PART_VACE, f->data_size, f->path)) return -1;
     memset(s, 0, sizeof *s);
     meta_text(f, "kind", s->kind, sizeof s->kind);
     if (strcmp(s->kind, "base") && strcmp(s->kind, "finetune"))
@@ -151,9 +155,16 @@ int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out,
 
 static int load_vae(const gv_st_file *f, const gv_model_config *cfg, const gv_train_state *s, gv_vae *vae)
 {
+    /* the VAE's tensors are in the checkpoint or in the file it names: one must hold them */
+    char path[4200], sum[64];
+    struct stat st;
+    uint64_t bytes = f->data_size;
+    if (gv_checkpoint_vae_path(f->path, s, path, sizeof path) == 0 && stat(path, &st) == 0 && (uint64_t)st.st_size > bytes)
+        bytes = (uint64_t)st.st_size;
+    gv_clear_error();
+    if (gv_weights_fit(cfg, GV_PART_VAE, bytes, f->path)) return -1;
     if (gv_vae_init(vae, cfg, 0, 0)) return -1;
     if (vae->params.n > 0 && gv_st_find(f, vae->params.items[0]->t.name)) return gv_vae_load(vae, f->path, 1);
-    char path[4200], sum[64];
     if (gv_checkpoint_vae_path(f->path, s, path, sizeof path) || gv_vae_load(vae, path, 0)) return -1;
     gv_checkpoint_vae_checksum(vae, sum, sizeof sum);
     if (*s->vae_checksum && strcmp(sum, s->vae_checksum))
