@@ -271,6 +271,16 @@ static void test_checkpoint_config(void)
     free(json);
 }
 
+/* A message quotes what the file holds: a newline there must not break the one line. */
+static void test_one_line(void)
+{
+    gv_fail("%s: unknown key '%s'", "f.json", "a\nb\r\x1b[31m");
+    CHECK(!strcmp(gv_last_error(), "f.json: unknown key 'a?b??[31m'"));
+    gv_model_config c;
+    CHECK(gv_model_config_parse(&c, "{\"name\": \"x\", \"li\\nne\": 1}", "k.json") != 0 &&
+          refused("k.json", "li?ne"));
+}
+
 int main(void)
 {
     snprintf(dir, sizeof dir, "%s", check_tmp_dir());
@@ -285,5 +295,6 @@ int main(void)
     test_images();
     test_colmap();
     test_checkpoint_config();
+    test_one_line();
     return check_summary();
 }
