@@ -65,14 +65,23 @@ int gv_mkdirs(const char *path);
 int gv_path_join(char *out, size_t size, const char *a, const char *b);
 
 /* A file written under a temporary name in the same folder and renamed on commit, so that
- * a reader never sees it half-written. */
+ * a reader never sees it half-written (src/core/atomic_file.c). A symbolic link is followed:
+ * the temporary goes beside the file it names, which is replaced and the link kept. An
+ * existing device, FIFO or socket is written into directly (renaming over it would replace
+ * the node); an existing directory is refused. */
 typedef struct {
     FILE *f;
-    char path[4096];
-    char tmp_path[4096 + 32];
+    int direct;                 /* writing straight into a device or FIFO: no rename */
+    char path[4096];            /* as the caller named it, for messages */
+    char target[4096];          /* path with its symbolic links followed */
+    char tmp_path[4096 + 48];
 } gv_atomic_file;
 int gv_atomic_open(gv_atomic_file *af, const char *path);
-/* Flushes, closes and renames into place; on any write error removes the temporary. */
+/* Follows the symbolic links from path to the name they finally lead to, which need not
+ * exist yet (a dangling link names the file to create). */
+int gv_path_follow_links(const char *path, char *out, size_t size);
+/* Flushes, fsyncs, closes and renames into place, then fsyncs the folder; on any write
+ * error removes the temporary and leaves the previous file as it was. */
 int gv_atomic_commit(gv_atomic_file *af);
 void gv_atomic_abort(gv_atomic_file *af);
 /* Writes text and a final newline to path atomically (JSON documents, manifests). */

@@ -10,6 +10,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/safetensors.h"
 #include "gaussvid/vae.h"
+#include "gaussvid/weight_names.h"
 
 enum { LISTED = 4 }; /* names shown per kind of problem */
 
@@ -147,6 +148,8 @@ int gv_vae_file_config(const char *path, gv_model_config *c)
     const char *json = gv_st_metadata(&f, "config");
     int rc = json ? gv_model_config_parse(c, json, path)
                   : gv_fail("%s: no \"config\" metadata (pass the model config with --config)", path);
+    /* the file's own config must fit in it before anyone builds that VAE (issue 25) */
+    if (rc == 0) rc = gv_weights_fit(c, GV_PART_VAE, f.data_size, path);
     gv_st_close(&f);
     return rc;
 }

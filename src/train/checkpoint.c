@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "gaussvid/condition.h"
 #include "gaussvid/core.h"
@@ -62,6 +63,9 @@ int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state 
     const char *json = gv_st_metadata(f, "config");
     if (!json) return gv_fail("%s: metadata config is missing", f->path);
     if (gv_model_config_parse(cfg, json, f->path)) return -1;
+    /* every checkpoint holds the DiT and VACE: refuse a config the file cannot hold before
+     * anyone builds its network (issue 25) */
+    if (gv_weights_fit(cfg, GV_PART_DIT | GV_PART_VACE, f->data_size, f->path)) return -1;
     memset(s, 0, sizeof *s);
     meta_text(f, "kind", s->kind, sizeof s->kind);
     if (strcmp(s->kind, "base") && strcmp(s->kind, "finetune"))
@@ -159,7 +163,14 @@ int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out,
  * one, else the checkpoint), or else the file the metadata names, checked by its checksum. */
 static int load_vae(const gv_st_file *f, gv_restorer *r)
 {
-    char sum[64];
+    /* the VAE's tensors are in the checkpoint or in the file it names: one must hold them */
+    char sum[64], named[4200];
+    struct stat st;
+    uint64_t bytes = f->data_size;
+    if (find_vae(f->path, r->state.vae, named, sizeof named) && stat(named, &st) == 0 &&
+        (uint64_t)st.st_size > bytes)
+        bytes = (uint64_t)st.st_size;
+    if (gv_weights_fit(&r->cfg, GV_PART_VAE, bytes, f->path)) return -1;
     if (gv_vae_init(&r->vae, &r->cfg, 0, 0)) return -1;
     if (r->vae.params.n > 0 && gv_st_find(f, r->vae.params.items[0]->t.name)) {
         if (!find_vae(f->path, r->state.vae, r->vae_path, sizeof r->vae_path))
