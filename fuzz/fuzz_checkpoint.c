@@ -1,6 +1,6 @@
 /* Checkpoints and VAE weights (safetensors whose metadata carries a model config), as
  * `model run`, `restore`, `train --resume` and `train --vae` read them: the first byte picks
- * the info read, the full checkpoint load, or the VAE load with the config in its metadata. */
+ * the info read, the restorer's load (network and VAE), or the VAE load with the config in its metadata. */
 #include "fuzz.h"
 #include "gaussvid/checkpoint.h"
 #include "gaussvid/train.h"
@@ -16,10 +16,10 @@ static int fuzz_one(const uint8_t *data, size_t size)
         gv_train_state state;
         fuzz_check_failure(gv_checkpoint_read_info(path, &cfg, &state), "model.safetensors");
     } else if (kind == 1) {
-        gv_dit m;
-        int rc = gv_checkpoint_load(path, &m, NULL, &cfg);
+        gv_restorer r;
+        int rc = gv_restorer_load(path, &r);
         fuzz_check_failure(rc, "model.safetensors");
-        if (rc == 0) gv_dit_free(&m);
+        if (rc == 0) gv_restorer_free(&r);
     } else {
         gv_vae vae;
         if (gv_model_config_preset(&cfg, "tiny")) abort();
