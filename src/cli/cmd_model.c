@@ -11,6 +11,7 @@
 
 #include "cli/commands.h"
 #include "gaussvid/core.h"
+#include "gaussvid/weight_files.h"
 #include "gaussvid/model_config.h"
 #include "gaussvid/weight_names.h"
 
@@ -292,7 +293,7 @@ typedef struct {
 static int open_weights(const file_list *names, gv_st_file *files)
 {
     for (int f = 0; f < names->n; f++) {
-        if (gv_st_open(&files[f], names->names[f]) != 0) {
+        if (gv_weights_open(&files[f], names->names[f]) != 0) {
             for (int g = 0; g < f; g++) gv_st_close(&files[g]);
             return -1;
         }
