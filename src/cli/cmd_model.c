@@ -402,6 +402,7 @@ static int cmd_model_inspect(int argc, char **argv)
 static const gv_subcommand model_commands[] = {
     {"inspect", cmd_model_inspect, "parameter counts per module; check weight files against a config"},
     {"run", cmd_model_run, "one forward pass of a network part on named input tensors"},
+    {"import", cmd_model_import, "a published Wan2.1-VACE release folder as a base checkpoint and VAE"},
 };
 
 int cmd_model(int argc, char **argv)
