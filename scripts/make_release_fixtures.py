@@ -53,11 +53,25 @@ def tensor_list(gaussvid):
     return json.loads(out)["tensor_list"]
 
 
+def tiny_umt5():
+    """Wan's T5Encoder names (wan/modules/t5.py, umt5_xxl: per-layer relative positions) at
+    vocab 64, dim 16, 2 heads of 8, FFN 24, 2 layers, 32 buckets."""
+    vocab, dim, ffn, heads, layers, buckets = 64, 16, 24, 2, 2, 32
+    out = [("token_embedding.weight", [vocab, dim])]
+    for i in range(layers):
+        b = f"blocks.{i}."
+        out += [(b + "norm1.weight", [dim])] + [(b + f"attn.{w}.weight", [dim, dim]) for w in "qkvo"]
+        out += [(b + "norm2.weight", [dim]), (b + "ffn.gate.0.weight", [ffn, dim]), (b + "ffn.fc1.weight", [ffn, dim]),
+                (b + "ffn.fc2.weight", [dim, ffn]), (b + "pos_embedding.embedding.weight", [buckets, heads])]
+    return out + [("norm.weight", [dim])]
+
+
 def values_of(name, shape):
     """Stand-in pretrained values, seeded by the name alone, as float32."""
     rng = random.Random("gaussvid-release-fixture:" + name)
     n = math.prod(shape)
-    gain = name.endswith((".norm_q.weight", ".norm_k.weight", ".norm3.weight", ".gamma"))
+    gain = name.endswith((".norm_q.weight", ".norm_k.weight", ".norm3.weight", ".gamma", ".norm1.weight",
+                          ".norm2.weight")) or name == "norm.weight"
     if len(shape) >= 2 and "modulation" not in name and not gain:
         bound = math.sqrt(3.0 / (n // shape[0]))
         vals = [rng.uniform(-bound, bound) for _ in range(n)]
@@ -128,8 +142,9 @@ def stand_in_torch():
         raise RuntimeError("a stand-in: the fixtures are only written")
 
     _rebuild_tensor_v2.__module__, _rebuild_tensor_v2.__qualname__ = "torch._utils", "_rebuild_tensor_v2"
-    FloatStorage = type("FloatStorage", (), {"__module__": "torch"})
-    utils._rebuild_tensor_v2, torch._utils, torch.FloatStorage = _rebuild_tensor_v2, utils, FloatStorage
+    utils._rebuild_tensor_v2, torch._utils = _rebuild_tensor_v2, utils
+    for storage in ("FloatStorage", "BFloat16Storage"):
+        setattr(torch, storage, type(storage, (), {"__module__": "torch"}))
     sys.modules["torch"], sys.modules["torch._utils"] = torch, utils
     return torch
 
@@ -155,10 +170,10 @@ class Tensor:
         return rebuild, (self.storage, 0, self.shape, tuple(stride), False, collections.OrderedDict())
 
 
-def pickle_state_dict(torch, tensors):
+def pickle_state_dict(torch, tensors, bf16):
     storages, state = [], collections.OrderedDict()
     for name, shape, vals in tensors:
-        storage = Storage(str(len(storages)), f32_bytes(vals))
+        storage = Storage(str(len(storages)), bf16_bytes(vals) if bf16 else f32_bytes(vals))
         storages.append(storage)
         state[name] = Tensor(storage, shape)
     # torch's state_dict() carries the modules' versions as an attribute (pickled by BUILD)
@@ -168,6 +183,8 @@ def pickle_state_dict(torch, tensors):
     class Pickler(pickle.Pickler):
         def persistent_id(self, obj):
             if isinstance(obj, Storage):
+                if bf16:
+                    return ("storage", torch.BFloat16Storage, obj.key, "cpu", len(obj.raw) // 2)
                 return ("storage", torch.FloatStorage, obj.key, "cpu", len(obj.raw) // 4)
             return None
 
@@ -192,9 +209,9 @@ def zip_records(records):
     return bytes(out + central + eocd)
 
 
-def write_pth(path, tensors):
+def write_pth(path, tensors, bf16=False):
     torch = stand_in_torch()
-    data_pkl, storages = pickle_state_dict(torch, tensors)
+    data_pkl, storages = pickle_state_dict(torch, tensors, bf16)
     archive = os.path.splitext(os.path.basename(path))[0]
     records = [(f"{archive}/data.pkl", data_pkl), (f"{archive}/byteorder", b"little")]
     records += [(f"{archive}/data/{s.key}", s.raw) for s in sorted(storages, key=lambda s: s.key)]
@@ -216,6 +233,8 @@ def main():
     write_shards(release, dit)
     write_safetensors(os.path.join(out, "tiny_vae_f32.safetensors"), vae, "F32", {"format": "pt"})
     write_pth(os.path.join(release, "Wan2.1_VAE.pth"), vae)
+    t5 = [(name, shape, values_of(name, shape)) for name, shape in tiny_umt5()]
+    write_pth(os.path.join(release, "models_t5_umt5-xxl-enc-bf16.pth"), t5, bf16=True)
     print(f"{len(dit)} DiT + VACE tensors, {len(vae)} VAE tensors written under {out}")
 
 
