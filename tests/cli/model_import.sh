@@ -70,6 +70,12 @@ expect 0 "restore with the imported base" -- "$G" restore --ckpt "$OUT/base.safe
 expect 0 "restore with the fine-tuned checkpoint" -- "$G" restore --ckpt "$T/ft.safetensors" --clips "$D" --split eval \
     --out "$T/restored-ft" --quiet --threads 1
 
+# The import benchmark on a stand-in release of the tiny shapes (two shards and an index).
+expect 0 "bench import" -- "$G" bench import --dir "$T/bench" --preset tiny --shards 2
+has "model import:"
+[ ! -e "$T/bench/release" ]
+check_rc "bench import removes its files" $?
+
 # Bad release folders: exit 1, one line naming the file; nothing written.
 mkdir -p "$T/empty"
 expect 1 "no files" -- "$G" model import --from "$T/empty" --config "$CFG" --out "$T/o1"
