@@ -31,6 +31,15 @@ How they are made (Python 3 standard library only: no torch, no numpy, no safete
     aligned to 64 bytes with an "FB" padding extra field as PyTorch's writer does) and
     Wan2.1_VAE/version.
 
+  * tiny-vace-bf16/models_t5_umt5-xxl-enc-bf16.pth: a tiny umT5 encoder (Wan's T5Encoder
+    names, vocab 64, dim 16, 2 heads, FFN 24, 2 layers, 32 buckets) with BF16 storages, as
+    the published text encoder.
+  * tiny-vace-bf16/google/umt5-xxl/spiece.model: a 64-piece SentencePiece unigram model
+    trained by Debian's `spm_train` (package sentencepiece, one thread) on the sentences in
+    TOKENIZER_CORPUS below, with umT5's special ids (pad 0, </s> 1, unk 2, no <s>); and
+    tokenizer_cases.json: texts with the ids `spm_encode --output_format=id` gives for their
+    whitespace-cleaned form, plus </s>, as Wan's tokenizer returns them.
+
 Run once; the outputs are committed (about 2 MB). Re-running gives the same bytes.
 """
 import collections
@@ -51,6 +60,40 @@ def tensor_list(gaussvid):
     out = subprocess.run([gaussvid, "model", "inspect", "--config", "tiny", "--variant", "camera=none,lora=0",
                           "--list", "--json"], check=True, capture_output=True, text=True).stdout
     return json.loads(out)["tensor_list"]
+
+
+TOKENIZER_CORPUS = [
+    "Remove degradation and restore clean video.",
+    "Restore the clean video from the degraded render.",
+    "A sparse view reconstruction leaves floaters and blur in novel views.",
+    "The restorer removes floaters, blur and broken structure.",
+    "Clean anchors at both ends of the clip guide the restoration.",
+    "Remove noise, distortion and low quality from the video.",
+]
+TOKENIZER_CASES = ["Remove degradation and restore clean video.", "  restore   clean\tvideo\n", "",
+                   "floaters and blur"]
+
+
+def write_tokenizer(release, out):
+    folder = os.path.join(release, "google", "umt5-xxl")
+    os.makedirs(folder, exist_ok=True)
+    corpus, prefix = os.path.join(folder, "corpus.txt"), os.path.join(folder, "spiece")
+    with open(corpus, "w") as f:
+        f.write("\n".join(TOKENIZER_CORPUS * 4) + "\n")
+    # relative paths: the model records its trainer's arguments, which must not name this machine
+    subprocess.run(["spm_train", "--input=corpus.txt", "--model_prefix=spiece", "--vocab_size=64",
+                    "--model_type=unigram", "--character_coverage=1.0", "--pad_id=0", "--eos_id=1", "--unk_id=2",
+                    "--bos_id=-1", "--num_threads=1"], check=True, capture_output=True, cwd=folder)
+    os.remove(corpus)
+    os.remove(prefix + ".vocab")
+    cases = []
+    for text in TOKENIZER_CASES:
+        clean = " ".join(text.split())
+        ids = subprocess.run(["spm_encode", f"--model={prefix}.model", "--output_format=id"], input=clean + "\n",
+                             check=True, capture_output=True, text=True).stdout.split()
+        cases.append({"text": text, "ids": [int(i) for i in ids] + [1]})
+    text = "[\n" + ",\n".join(json.dumps(c) for c in cases) + "\n]\n"
+    write_atomic(os.path.join(out, "tokenizer_cases.json"), text.encode())
 
 
 def tiny_umt5():
@@ -235,6 +278,7 @@ def main():
     write_pth(os.path.join(release, "Wan2.1_VAE.pth"), vae)
     t5 = [(name, shape, values_of(name, shape)) for name, shape in tiny_umt5()]
     write_pth(os.path.join(release, "models_t5_umt5-xxl-enc-bf16.pth"), t5, bf16=True)
+    write_tokenizer(release, out)
     print(f"{len(dit)} DiT + VACE tensors, {len(vae)} VAE tensors written under {out}")
 
 

@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(build-essential cmake pkg-config libopenblas-openmp-dev libpng-dev libjpeg-dev
-          libcjson-dev zlib1g-dev)
+          libcjson-dev zlib1g-dev libsentencepiece-dev)
 
 missing=()
 for p in "${packages[@]}"; do

@@ -20,7 +20,12 @@ typedef struct {
                                          diffusion_pytorch_model.safetensors */
     char vae[GV_RELEASE_PATH_MAX];    /* Wan2.1_VAE.pth, else Wan2.1_VAE.safetensors */
     char config[GV_RELEASE_PATH_MAX]; /* the release's config.json, or "" when absent */
+    char t5[GV_RELEASE_PATH_MAX];     /* models_t5_umt5-xxl-enc-bf16.pth, or "" */
+    char tokenizer[GV_RELEASE_PATH_MAX]; /* google/umt5-xxl/spiece.model, or "" */
 } gv_release_files;
+
+/* GaussVid's prompt (reference 1.2). */
+#define GV_GAUSSVID_PROMPT "Remove degradation and restore clean video."
 
 /* Finds the files in dir; a missing DiT or VAE fails naming the folder and the file names
  * looked for. */
@@ -33,6 +38,7 @@ typedef struct {
     int vae_tensors;
     int64_t vae_values;
     char vae_checksum[48];
+    int text_tokens;          /* tokens of the prompt's context; 0 when none was computed */
 } gv_import_summary;
 
 /* Checks the release config.json (when there is one) against cfg, the DiT + VACE and VAE
@@ -41,8 +47,11 @@ typedef struct {
  * the config and cfg's latent statistics) and out_dir/base.safetensors (a gaussvid base
  * checkpoint: the config with variant camera = none, since the release has no camera
  * encoder; the DiT + VACE tensors in the release's dtypes; the VAE named with its
- * checksum). Both appear together or not at all. */
-int gv_model_import(const gv_release_files *files, const gv_model_config *cfg, const char *out_dir,
-                    gv_import_summary *summary);
+ * checksum). With a prompt, a text encoder and a tokenizer (files->t5, files->tokenizer), and
+ * a config with cross-attention, also out_dir/text_context.safetensors: the prompt's context
+ * [text_len, text_dim], named in the base's metadata. The files appear together or not at
+ * all. */
+int gv_model_import(const gv_release_files *files, const gv_model_config *cfg, const char *prompt,
+                    const char *out_dir, gv_import_summary *summary);
 
 #endif

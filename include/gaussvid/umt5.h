@@ -38,4 +38,21 @@ int gv_umt5_bucket(int rel, int num_buckets, int max_dist);
  * the real tokens do not depend on the padding. */
 int gv_umt5_encode(const gv_umt5_config *c, const gv_st_file *f, const int32_t *ids, int n, float *out);
 
+/* ---- the tokenizer (umt5_tokenizer.c; needs libsentencepiece at build time) ---------------- */
+typedef struct gv_tokenizer gv_tokenizer;
+/* Opens a SentencePiece model (the release's google/umt5-xxl/spiece.model). */
+int gv_tokenizer_open(gv_tokenizer **t, const char *path);
+void gv_tokenizer_close(gv_tokenizer *t);
+int gv_tokenizer_vocab(const gv_tokenizer *t);
+/* The ids of text as Wan tokenizes a prompt: whitespace runs collapsed and the ends trimmed,
+ * the SentencePiece ids, then </s>; at most max ids (longer texts are truncated before the
+ * </s>). Returns the count, or -1 with a message. */
+int gv_tokenizer_encode(const gv_tokenizer *t, const char *text, int32_t *ids, int max);
+
+/* The DiT's text context of a prompt (umt5_context.c): its ids (into ids, at most text_len,
+ * </s> included) encoded into the first rows of out [text_len, dim], zero rows after them,
+ * as Wan pads the encoder's output. Returns the number of tokens, or -1. */
+int gv_umt5_text_context(const gv_umt5_config *c, const gv_st_file *f, const gv_tokenizer *t, const char *prompt,
+                         int text_len, float *out, int32_t *ids);
+
 #endif

@@ -27,14 +27,26 @@ expect 2 "no --from" -- "$G" model import --config "$CFG" --out "$T/x"
 expect 0 "inspect the release files" -- "$G" model inspect --config "$CFG" --variant camera=none,lora=0 --parts base \
     --weights "$REL/diffusion_pytorch_model.safetensors.index.json" --weights "$REL/Wan2.1_VAE.pth"
 
-# The sharded BF16 release (Wan2.1-VACE-14B's layout).
+# The sharded BF16 release (Wan2.1-VACE-14B's layout), with the umT5 encoder and its tokenizer.
 OUT="$T/imported"
 expect 0 "import the BF16 shards" -- "$G" model import --from "$REL" --config "$CFG" --out "$OUT" --quiet
 has "131 tensors, 75184 values (131 BF16)"
 has "VAE 146 tensors, 203295 values"
 exists "$OUT/base.safetensors"
 exists "$OUT/vae.safetensors"
-[ -z "$(ls -A "$OUT" | grep -v -e '^base.safetensors$' -e '^vae.safetensors$')" ]
+if ldd "$G" | grep -q sentencepiece; then
+    has "is 4 tokens -> $OUT/text_context.safetensors" # tiny's text_len is 4: three pieces and </s>
+    expect 0 "st inspect of the text context" -- "$G" st inspect "$OUT/text_context.safetensors"
+    has "text_context"
+    has "[4, 16]"
+    has "prompt: Remove degradation and restore clean video."
+    expect 1 "an encoder without its tokenizer" -- "$G" model import --from "$REL" --config "$CFG" --out "$T/o0" \
+        --tokenizer "$T/none.model"
+    one_line "none.model: cannot open"
+else
+    echo "built without libsentencepiece: text context checks skipped"
+fi
+[ -z "$(ls -A "$OUT" | grep -v -e '^base.safetensors$' -e '^vae.safetensors$' -e '^text_context.safetensors$')" ]
 check_rc "nothing else left in the output folder" $?
 expect 0 "the imported files load" -- "$G" model inspect --config "$CFG" --variant camera=none,lora=0 --parts base \
     --weights "$OUT/base.safetensors,$OUT/vae.safetensors"
@@ -52,6 +64,7 @@ printf '{"_class_name": "VaceWanModel", "dim": 32, "ffn_dim": 64, "num_heads": 2
 expect 0 "import the F32 file" -- "$G" model import --from "$R32" --config "$CFG" --out "$T/imported32" --quiet
 has "(131 F32)"
 has "config.json: agrees with tiny"
+has "no text context (no text encoder and tokenizer): the network gets zeros"
 
 # Fine-tuning (LoRA + a fresh camera encoder) from the imported base, and restoring with the
 # base (zero-shot) and with the fine-tuned checkpoint, on a small generated dataset.
