@@ -69,6 +69,7 @@ int gv_tokenizer_vocab(const gv_tokenizer *t)
     return t->vocab;
 }
 
+#ifdef GV_HAVE_SENTENCEPIECE
 /* Wan's whitespace_clean: re.sub(r"\s+", " ", text).strip(), for ASCII whitespace. */
 static char *clean_whitespace(const char *text)
 {
@@ -89,6 +90,7 @@ static char *clean_whitespace(const char *text)
     out[k] = '\0';
     return out;
 }
+#endif
 
 int gv_tokenizer_encode(const gv_tokenizer *t, const char *text, int32_t *ids, int max)
 {
@@ -103,7 +105,7 @@ int gv_tokenizer_encode(const gv_tokenizer *t, const char *text, int32_t *ids, i
     ids[n] = t->eos;
     return (int)n + 1;
 #else
-    (void)ids;
+    (void)text, (void)ids;
     return gv_fail("%s: gaussvid was built without libsentencepiece", t->path);
 #endif
 }
