@@ -7,13 +7,13 @@
 # Usage: bash tests/layers.sh SOURCE_DIR
 LAYERS='
 core    : -           : core camera
-io      : core        : image metrics gaussians ply colmap transforms safetensors
+io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files
 scene   : io          : scene synth
 splat   : scene       : splat splat_train render
 nn      : core        : tensor ops optim nn
-model   : io nn       : model_config dit vae plucker weight_names
+model   : io nn       : model_config dit vae plucker weight_names umt5
 data    : splat       : dataset
-train   : model data  : train condition checkpoint vae_train
+train   : model data  : train condition checkpoint vae_train model_import
 restore : train       : restore
 eval    : restore     : eval lpips
 bench   : restore     : -

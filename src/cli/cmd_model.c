@@ -11,6 +11,7 @@
 
 #include "cli/commands.h"
 #include "gaussvid/core.h"
+#include "gaussvid/weight_files.h"
 #include "gaussvid/model_config.h"
 #include "gaussvid/weight_names.h"
 
@@ -249,7 +250,7 @@ typedef struct {
 static int open_weights(const gv_flag_list *names, gv_st_file *files)
 {
     for (int f = 0; f < names->n; f++) {
-        if (gv_st_open(&files[f], names->items[f]) != 0) {
+        if (gv_weights_open(&files[f], names->items[f]) != 0) {
             for (int g = 0; g < f; g++) gv_st_close(&files[g]);
             return -1;
         }
@@ -352,6 +353,7 @@ static int cmd_model_inspect(int argc, char **argv)
 static const gv_subcommand model_commands[] = {
     {"inspect", cmd_model_inspect, "parameter counts per module; check weight files against a config"},
     {"run", cmd_model_run, "one forward pass of a network part on named input tensors"},
+    {"import", cmd_model_import, "a published Wan2.1-VACE release folder as a base checkpoint and VAE"},
 };
 
 int cmd_model(int argc, char **argv)

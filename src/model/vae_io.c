@@ -11,6 +11,7 @@
 #include "gaussvid/safetensors.h"
 #include "gaussvid/vae.h"
 #include "gaussvid/weight_names.h"
+#include "gaussvid/weight_files.h"
 
 enum { LISTED = 4 }; /* names shown per kind of problem */
 
@@ -66,7 +67,7 @@ static int load_stats(gv_vae *v, const gv_st_file *f)
 int gv_vae_load(gv_vae *v, const char *path, int allow_other)
 {
     gv_st_file f;
-    if (gv_st_open(&f, path)) return -1;
+    if (gv_weights_open(&f, path)) return -1;
     problem_list missing = {0, ""}, unexpected = {0, ""}, shaped = {0, ""};
     char have[64], want[64];
     for (int i = 0; i < v->params.n; i++) {
