@@ -38,6 +38,7 @@ typedef struct {
     double psnr_render_covered;     /* the render on the pixels some anchor covers */
     double psnr_render_uncovered;   /* ... and on the pixels none covers */
     double psnr_oracle;             /* per pixel the best of the render and the covering warps */
+    double psnr_blend;              /* per pixel the mean of the render and the covering warps */
     double sse_render, sse_uncovered; /* the render's squared error: all, uncovered pixels */
 } gv_coverage_frame;
 
@@ -58,7 +59,7 @@ typedef struct {
     int frames;
     double covered, anchor_covered[2];
     double psnr_render, psnr_render_on[2], psnr_warp[2];
-    double psnr_render_covered, psnr_render_uncovered, psnr_oracle;
+    double psnr_render_covered, psnr_render_uncovered, psnr_oracle, psnr_blend;
     int frames_with[2];             /* frames where anchor k covers some pixel */
     /* share of the render's squared error on uncovered pixels: pooled over all frames, and
      * the mean of the per-frame shares */

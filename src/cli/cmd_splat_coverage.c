@@ -42,6 +42,7 @@ static cJSON *summary_json(const gv_coverage_summary *s)
     add_number(o, "psnr_render_uncovered", s->psnr_render_uncovered);
     add_number(o, "psnr_oracle", s->psnr_oracle);
     add_number(o, "oracle_gain", s->psnr_oracle - s->psnr_render);
+    add_number(o, "psnr_blend", s->psnr_blend);
     add_number(o, "uncovered_error_share", s->uncovered_error_share);
     add_number(o, "uncovered_error_share_mean", s->uncovered_error_share_mean);
     return o;
@@ -62,6 +63,7 @@ static cJSON *frame_json(const gv_scene *scene, const gv_coverage_frame *f)
     add_number(o, "psnr_render_covered", f->psnr_render_covered);
     add_number(o, "psnr_render_uncovered", f->psnr_render_uncovered);
     add_number(o, "psnr_oracle", f->psnr_oracle);
+    add_number(o, "psnr_blend", f->psnr_blend);
     add_number(o, "uncovered_error_share",
                f->sse_render > 0 ? f->sse_uncovered / f->sse_render : NAN);
     return o;
@@ -108,8 +110,10 @@ static void print_table(const gv_scene *scene, const gv_coverage_frame *r, int n
     for (int k = 0; k < 2; k++)
         printf("  anchor %d on the pixels it covers: render %.2f dB, warp %.2f dB\n", k + 1,
                s->psnr_render_on[k], s->psnr_warp[k]);
-    printf("  oracle %.2f dB (%+.2f); uncovered pixels hold %.1f%% of the render's squared "
-           "error\n", s->psnr_oracle, s->psnr_oracle - s->psnr_render,
+    printf("  oracle %.2f dB (%+.2f), mean of render and warps %.2f dB (%+.2f)\n",
+           s->psnr_oracle, s->psnr_oracle - s->psnr_render, s->psnr_blend,
+           s->psnr_blend - s->psnr_render);
+    printf("  uncovered pixels hold %.1f%% of the render's squared error\n",
            100 * s->uncovered_error_share);
 }
 
@@ -138,9 +142,10 @@ int cmd_splat_coverage(int argc, char **argv)
         "model's rendered depth, keeping the pixels whose point the anchor's own rendered\n"
         "depth sees (the occlusion test). Prints, per frame and as means: the share of pixels\n"
         "some anchor covers; PSNR of the render, of the render and each warp on the pixels that\n"
-        "anchor covers, of a per-pixel oracle (best of render and covering warps); and the\n"
-        "share of the render's squared error on the pixels no anchor covers. Renders are\n"
-        "scored as 'splat eval' scores them (8 bits). See docs/SPLAT_TRAINING.md.",
+        "anchor covers, of a per-pixel oracle (best of render and covering warps) and of the\n"
+        "per-pixel mean of render and covering warps; and the share of the render's squared\n"
+        "error on the pixels no anchor covers. Renders are scored as 'splat eval' scores\n"
+        "them (8 bits). See docs/SPLAT_TRAINING.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);

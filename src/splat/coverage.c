@@ -100,23 +100,25 @@ static double squared_error(const float *a, const float *b)
 static void score_frame(gv_coverage_frame *out, long pixels, const float *render,
                         const float *truth, float *const warp[2], uint8_t *const covered[2])
 {
-    double sse_all = 0, sse_cov = 0, sse_unc = 0, sse_oracle = 0;
+    double sse_all = 0, sse_cov = 0, sse_unc = 0, sse_oracle = 0, sse_blend = 0;
     double sse_warp[2] = {0, 0}, sse_on[2] = {0, 0};
     long n_cov = 0, n_on[2] = {0, 0};
     for (long p = 0; p < pixels; p++) {
         const float *t = truth + 3 * p;
         double e = squared_error(render + 3 * p, t), best = e;
+        float blend[3] = {render[3 * p], render[3 * p + 1], render[3 * p + 2]};
         int any = 0;
         for (int k = 0; k < 2; k++) {
             if (!covered[k][p]) continue;
             float *w = warp[k] + 3 * p;
-            for (int c = 0; c < 3; c++) w[c] = quantise8(w[c]);
+            for (int c = 0; c < 3; c++) w[c] = quantise8(w[c]), blend[c] += w[c];
             double ek = squared_error(w, t);
             sse_warp[k] += ek, sse_on[k] += e, n_on[k]++;
             if (ek < best) best = ek;
-            any = 1;
+            any++;
         }
-        sse_all += e, sse_oracle += best;
+        for (int c = 0; c < 3; c++) blend[c] = quantise8(blend[c] / (float)(1 + any));
+        sse_all += e, sse_oracle += best, sse_blend += squared_error(blend, t);
         if (any) sse_cov += e, n_cov++;
         else sse_unc += e;
     }
@@ -124,6 +126,7 @@ static void score_frame(gv_coverage_frame *out, long pixels, const float *render
     out->covered = (double)n_cov / pixels;
     out->psnr_render = psnr_of(sse_all, 3 * pixels);
     out->psnr_oracle = psnr_of(sse_oracle, 3 * pixels);
+    out->psnr_blend = psnr_of(sse_blend, 3 * pixels);
     out->psnr_render_covered = psnr_of(sse_cov, 3 * n_cov);
     out->psnr_render_uncovered = psnr_of(sse_unc, 3 * (pixels - n_cov));
     for (int k = 0; k < 2; k++) {
@@ -230,10 +233,11 @@ static double mean(mean_acc m)
 void gv_coverage_summarise(const gv_coverage_frame *r, int n, gv_coverage_summary *s)
 {
     mean_acc cov = {0}, acov[2] = {{0}}, pr = {0}, pon[2] = {{0}}, pw[2] = {{0}};
-    mean_acc pc = {0}, pu = {0}, po = {0}, share = {0};
+    mean_acc pc = {0}, pu = {0}, po = {0}, pb = {0}, share = {0};
     double sse = 0, sse_unc = 0;
     for (int i = 0; i < n; i++) {
         add(&cov, r[i].covered), add(&pr, r[i].psnr_render), add(&po, r[i].psnr_oracle);
+        add(&pb, r[i].psnr_blend);
         add(&pc, r[i].psnr_render_covered), add(&pu, r[i].psnr_render_uncovered);
         for (int k = 0; k < 2; k++) {
             add(&acov[k], r[i].anchor_covered[k]);
@@ -245,6 +249,7 @@ void gv_coverage_summarise(const gv_coverage_frame *r, int n, gv_coverage_summar
     memset(s, 0, sizeof *s);
     s->frames = n;
     s->covered = mean(cov), s->psnr_render = mean(pr), s->psnr_oracle = mean(po);
+    s->psnr_blend = mean(pb);
     s->psnr_render_covered = mean(pc), s->psnr_render_uncovered = mean(pu);
     for (int k = 0; k < 2; k++) {
         s->anchor_covered[k] = mean(acov[k]);

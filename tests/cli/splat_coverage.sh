@@ -48,6 +48,8 @@ check "oracle never below the render" test "$(awk '/^[0-9]/ && $8 < $5 - 0.005' 
 check "coverage within 0-100 %" test "$(awk '/^[0-9]/ && ($4 + 0 < 0 || $4 + 0 > 100)' "$T/out" | wc -l)" -eq 0
 check "json per_frame" test "$(grep -c '"psnr_oracle":' "$T/c.json")" -eq 10
 check "json mean" grep -q '"uncovered_error_share":' "$T/c.json"
+check "json blend" test "$(grep -c '"psnr_blend":' "$T/c.json")" -eq 10
+has "mean of render and warps"
 check "json anchors" grep -q '"anchors":' "$T/c.json"
 # the render's PSNR is splat eval's (8-bit render against the 8-bit image)
 "$G" splat eval --model "$T/m.ply" --scene "$T/scene" --interval 4 > "$T/eval.txt"
