@@ -28,6 +28,7 @@ int cmd_splat_export(int argc, char **argv);
 int cmd_splat_train(int argc, char **argv);
 int cmd_splat_render(int argc, char **argv);
 int cmd_splat_eval(int argc, char **argv);
+int cmd_splat_coverage(int argc, char **argv);
 int cmd_st(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_dataset(int argc, char **argv);
