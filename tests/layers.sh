@@ -7,9 +7,9 @@
 # Usage: bash tests/layers.sh SOURCE_DIR
 LAYERS='
 core    : -           : core camera
-io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files
-scene   : io          : scene synth
-splat   : scene       : splat splat_train render
+io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files npy
+scene   : io          : scene synth reproject
+splat   : scene       : splat splat_train render coverage
 nn      : core        : tensor ops optim nn
 model   : io nn       : model_config dit vae plucker weight_names umt5
 data    : splat       : dataset
