@@ -52,9 +52,9 @@ static double tidy(double x) { return round(x * 1e6) / 1e6; }
 int gv_run_record_write(const char *path, const gv_run_record *r)
 {
     cJSON *root = cJSON_CreateObject();
-    cJSON_AddStringToObject(root, "scene", r->scene);
-    cJSON_AddStringToObject(root, "split", r->split);
-    cJSON_AddNumberToObject(root, "n", r->n);
+    cJSON_AddStringToObject(root, "scene", r->id.scene);
+    cJSON_AddStringToObject(root, "split", r->id.split);
+    cJSON_AddNumberToObject(root, "n", r->id.n);
     cJSON_AddNumberToObject(root, "iters", r->iters);
     cJSON_AddNumberToObject(root, "train_views", r->n_train);
     cJSON_AddNumberToObject(root, "clips", r->n_clips);
@@ -139,8 +139,8 @@ int gv_run_record_read(const char *path, gv_run_record *r)
     double v[6];
     int rc = 0;
     if (!cJSON_IsObject(root)) rc = gv_fail("%s: not a JSON object", path);
-    else if (!cJSON_IsString(scene) || strlen(scene->valuestring) >= sizeof r->scene ||
-             !cJSON_IsString(split) || strlen(split->valuestring) >= sizeof r->split)
+    else if (!cJSON_IsString(scene) || strlen(scene->valuestring) >= sizeof r->id.scene ||
+             !cJSON_IsString(split) || strlen(split->valuestring) >= sizeof r->id.split)
         rc = gv_fail("%s: \"scene\" and \"split\" must be short strings", path);
     else if (number(root, "n", 2, 1e6, &v[0]) || number(root, "iters", 0, 1e9, &v[1]) ||
              number(root, "train_views", 0, 1e9, &v[2]) || number(root, "clips", 0, 1e6, &v[3]) ||
@@ -150,9 +150,9 @@ int gv_run_record_read(const char *path, gv_run_record *r)
     else
         rc = read_frames(cJSON_GetObjectItemCaseSensitive(root, "frames"), path, r);
     if (rc == 0) {
-        snprintf(r->scene, sizeof r->scene, "%s", scene->valuestring);
-        snprintf(r->split, sizeof r->split, "%s", split->valuestring);
-        r->n = (int)v[0], r->iters = (int)v[1], r->n_train = (int)v[2], r->n_clips = (int)v[3];
+        snprintf(r->id.scene, sizeof r->id.scene, "%s", scene->valuestring);
+        snprintf(r->id.split, sizeof r->id.split, "%s", split->valuestring);
+        r->id.n = (int)v[0], r->iters = (int)v[1], r->n_train = (int)v[2], r->n_clips = (int)v[3];
         r->seconds = v[4], r->train_seconds = v[5];
         double render;
         r->render_seconds = number(root, "render_seconds", 0, 1e12, &render) ? 0 : render;
