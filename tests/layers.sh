@@ -7,7 +7,7 @@
 # Usage: bash tests/layers.sh SOURCE_DIR
 LAYERS='
 core    : -           : core camera
-io      : core        : image metrics gaussians ply colmap transforms safetensors
+io      : core        : image metrics gaussians ply colmap transforms safetensors json
 scene   : io          : scene synth
 splat   : scene       : splat splat_train render
 nn      : core        : tensor ops optim nn

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "gaussvid/dataset.h"
+#include "gaussvid/json.h"
 
 #define MANIFEST_NAME "manifest.json"
 #define MAX_SEED 9007199254740992.0 /* 2^53: integers a JSON number (a double) holds exactly */
@@ -163,22 +164,17 @@ int gv_manifest_write(const char *dir, const gv_manifest *m)
 static int get_int(const cJSON *o, const char *key, double min, double max, const char *path,
                    const char *where, double *out)
 {
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
-    if (!cJSON_IsNumber(v) || v->valuedouble != floor(v->valuedouble) || v->valuedouble < min ||
-        v->valuedouble > max)
+    if (gv_json_number(o, key, min, max, 1, out))
         return gv_fail("%s: %s: \"%s\" must be an integer in %.0f..%.0f", path, where, key, min, max);
-    *out = v->valuedouble;
     return 0;
 }
 
 static int get_string(const cJSON *o, const char *key, char *out, size_t size, const char *path,
                       const char *where)
 {
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
-    if (!cJSON_IsString(v) || strlen(v->valuestring) >= size || !v->valuestring[0])
+    if (gv_json_string(o, key, out, size) || !out[0])
         return gv_fail("%s: %s: \"%s\" must be a non-empty string of at most %zu bytes", path,
                        where, key, size - 1);
-    strcpy(out, v->valuestring);
     return 0;
 }
 
