@@ -7,7 +7,7 @@
 # Usage: bash tests/layers.sh SOURCE_DIR
 LAYERS='
 core    : -           : core camera
-io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files npy
+io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files npy json
 scene   : io          : scene synth reproject
 splat   : scene       : splat splat_train render coverage
 nn      : core        : tensor ops optim nn

@@ -454,7 +454,7 @@ static void test_runs(const char *tmp)
     snprintf(path, sizeof path, "%s/beta_n08_002.safetensors", out);
     CHECK(gv_clip_read(p2, &orig) == 0 && gv_clip_read(path, &saved) == 0);
     CHECK(!memcmp(orig.targets, saved.targets, (size_t)5 * W * H * 3) && !memcmp(orig.inputs, saved.inputs, (size_t)W * H * 3));
-    CHECK(memcmp(orig.inputs, saved.inputs, (size_t)5 * W * H * 3) && saved.info.n == 8);
+    CHECK(memcmp(orig.inputs, saved.inputs, (size_t)5 * W * H * 3) && saved.info.id.n == 8);
     for (int f = 0; f < 5; f++) {
         gv_image img;
         snprintf(path, sizeof path, "%s/beta_n08_002/f%d.png", out, f);

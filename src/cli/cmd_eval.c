@@ -42,38 +42,31 @@ int cmd_eval(int argc, char **argv)
     gv_restore_options o;
     if (gv_restore_cli_options(&c, &o)) return gv_restore_cli_usage("eval", gv_last_error());
 
-    gv_restorer r;
-    if (gv_restore_cli_load(c.ckpt, &r)) return gv_report_failure();
-    gv_lpips lpips;
-    int failed;
-    const gv_lpips *net = gv_restore_cli_lpips(&c, &lpips, &failed);
-    gv_eval_table table;
-    gv_eval_init(&table, net);
-    o.each = gv_eval_add_restored, o.each_ctx = &table;
-    int rc = failed ? -1 : gv_restore_dataset(&r, clips, &o);
+    gv_restore_session s;
+    int rc = gv_restore_cli_start(&c, &o, &s) ? -1 : gv_restore_dataset(&s.r, clips, &o);
+    gv_eval_table *table = &s.table;
     char text[256];
     gv_sampler_describe(&o.sampler, text, sizeof text);
     if (rc == 0) {
-        gv_eval_finish(&table);
-        printf("%s (%s split): %d clips, checkpoint %s, %s, %s composition\n\n", clips, c.split, table.mean.clips, c.ckpt,
+        gv_eval_finish(table);
+        printf("%s (%s split): %d clips, checkpoint %s, %s, %s composition\n\n", clips, c.split, table->mean.clips, c.ckpt,
                text, gv_compose_name(o.compose));
-        gv_eval_print_markdown(&table, stdout);
+        gv_eval_print_markdown(table, stdout);
     }
     if (rc == 0 && json) {
         const char *keys[5] = {"checkpoint", "sampler", "compose", "split", "clips_dir"};
         const char *values[5] = {c.ckpt, text, gv_compose_name(o.compose), c.split, clips};
-        rc = gv_eval_write_json(&table, json, keys, values, 5);
+        rc = gv_eval_write_json(table, json, keys, values, 5);
     }
     if (rc == 0 && identity) {
         /* restore.h: the identity sampler with residual composition reproduces the inputs */
-        int same = table.mean.psnr_rest == table.mean.psnr_base && table.mean.ssim_rest == table.mean.ssim_base;
-        for (int i = 0; i < table.n_rows; i++)
-            same = same && table.rows[i].psnr_rest == table.rows[i].psnr_base &&
-                   table.rows[i].ssim_rest == table.rows[i].ssim_base;
+        int same = table->mean.psnr_rest == table->mean.psnr_base && table->mean.ssim_rest == table->mean.ssim_base;
+        for (int i = 0; i < table->n_rows; i++)
+            same = same && table->rows[i].psnr_rest == table->rows[i].psnr_base &&
+                   table->rows[i].ssim_rest == table->rows[i].ssim_base;
         if (!same) rc = gv_fail("%s: identity check failed: restored numbers differ from the baseline", clips);
         else printf("\nidentity check passed: restored = baseline for every n\n");
     }
-    gv_lpips_free(&lpips);
-    gv_restorer_free(&r);
+    gv_restore_cli_end(&s);
     return rc == 0 ? 0 : gv_report_failure();
 }

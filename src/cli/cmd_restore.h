@@ -19,11 +19,16 @@ typedef struct {
 void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *flags, const char *split_help);
 /* The restore options of the flags; fails (a usage error) naming the flag. */
 int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o);
-/* Loads the checkpoint (gv_restorer_load) and says what it is. */
-int gv_restore_cli_load(const char *ckpt, gv_restorer *r);
-/* Loads the LPIPS weights of --lpips into net and returns it, or NULL without the flag;
- * *failed is set when the file does not load. */
-const gv_lpips *gv_restore_cli_lpips(const gv_restore_cli *c, gv_lpips *net, int *failed);
+/* What a restore or eval run holds: the checkpoint, the LPIPS weights of --lpips, the table. */
+typedef struct {
+    gv_restorer r;
+    gv_lpips lpips;
+    gv_eval_table table;
+} gv_restore_session;
+/* Loads the checkpoint (saying what it is) and the --lpips weights, and makes o hand every
+ * restored clip to s->table. s is freed by gv_restore_cli_end whatever this returns. */
+int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_restore_session *s);
+void gv_restore_cli_end(gv_restore_session *s);
 /* Prints "usage error" as the commands do and returns 2. */
 int gv_restore_cli_usage(const char *command, const char *message);
 

@@ -172,9 +172,9 @@ static int run_is_complete(const char *out, const gv_manifest *m, const char *na
     *complete = 0;
     int r = gv_manifest_find_run(m, name, n);
     if (r < 0) return 0;
-    if (strcmp(m->runs[r].split, split))
+    if (strcmp(m->runs[r].id.split, split))
         return gv_fail("%s/manifest.json: %s n=%d was built in the %s split, this build puts it in "
-                       "%s (use another --out folder)", out, name, n, m->runs[r].split, split);
+                       "%s (use another --out folder)", out, name, n, m->runs[r].id.split, split);
     char file[GV_SCENE_NAME_MAX + 32], path[4096];
     if (gv_run_file_name(file, sizeof file, name, n) || gv_path_join(path, sizeof path, out, file))
         return -1;
@@ -182,7 +182,7 @@ static int run_is_complete(const char *out, const gv_manifest *m, const char *na
     int clips = 0;
     for (int i = 0; i < m->n_clips; i++) {
         const gv_manifest_clip *c = &m->clips[i];
-        if (c->n != n || strcmp(c->scene, name)) continue;
+        if (c->id.n != n || strcmp(c->id.scene, name)) continue;
         if (gv_path_join(path, sizeof path, out, c->file) != 0 || !gv_file_exists(path)) return 0;
         clips++;
     }
@@ -212,8 +212,10 @@ static int build_one(build_state *b, int r)
     int i = r / opt->n_intervals, n = opt->intervals[r % opt->n_intervals];
     const scene_set *s = b->scenes;
     gv_info("dataset: starting %s n=%d (%s split)", s->names[i], n, s->splits[i]);
-    data_run run = {&s->scenes[i], s->names[i], s->splits[i], n, &opt->params,
-                    opt->simulator ? opt->simulator : &gv_artifact_3dgs, opt->out_dir};
+    data_run run = {&s->scenes[i], {"", "", n}, &opt->params, opt->simulator ? opt->simulator : &gv_artifact_3dgs,
+                    opt->out_dir};
+    snprintf(run.id.scene, sizeof run.id.scene, "%s", s->names[i]);
+    snprintf(run.id.split, sizeof run.id.split, "%s", s->splits[i]);
     gv_run_record rec;
     if (data_build_run(&run, b->manifest, &rec) != 0) return -1;
 #pragma omp critical(gv_dataset_progress)

@@ -108,14 +108,14 @@ int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore
     }
     int total = 0;
     for (int i = 0; rc == 0 && i < (o->use_cache ? set.count : man.n_clips); i++)
-        total += o->use_cache || !o->split || !strcmp(man.clips[i].split, o->split);
+        total += o->use_cache || !o->split || !strcmp(man.clips[i].id.split, o->split);
     if (rc == 0 && total == 0) rc = gv_fail("%s: the manifest lists no %s clips", dataset_dir, o->split ? o->split : "");
     gv_progress bar;
     gv_progress_start(&bar, "restore", total);
     int done = 0;
     char note[64] = ""; /* o->each's last note */
     for (int i = 0; rc == 0 && i < (o->use_cache ? set.count : man.n_clips); i++) {
-        if (!o->use_cache && o->split && strcmp(man.clips[i].split, o->split)) continue;
+        if (!o->use_cache && o->split && strcmp(man.clips[i].id.split, o->split)) continue;
         const char *name = o->use_cache ? set.names[i] : man.clips[i].file;
         char path[4096];
         gv_clip clip;
