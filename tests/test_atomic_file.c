@@ -9,6 +9,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
+#include <sys/wait.h>
 
 #include "check.h"
 #include "gaussvid/core.h"
@@ -204,6 +205,29 @@ static void test_disk_full(void)
     CHECK(has_text(path, "previous\n") && temporaries_in(dir) == 0);
 }
 
+/* What a killed writer leaves (NAME.tmp.PID.K, or NAME.tmp.PID as before) is swept when
+ * its process is gone; a live process's temporaries and other files stay. */
+static void test_sweep(void)
+{
+    CHECK(mkdir(at("sweep"), 0755) == 0);
+    pid_t child = fork();
+    if (child == 0) _exit(0);
+    waitpid(child, NULL, 0); /* a pid that is gone */
+    char name[256];
+    snprintf(name, sizeof name, "sweep/a.json.tmp.%ld.3", (long)child);
+    CHECK(write_plain(at(name), "partial") == 0);
+    snprintf(name, sizeof name, "sweep/b.ply.tmp.%ld", (long)child);
+    CHECK(write_plain(at(name), "partial") == 0);
+    snprintf(name, sizeof name, "sweep/c.safetensors.tmp.%ld.0", (long)getppid()); /* alive */
+    CHECK(write_plain(at(name), "in progress") == 0);
+    CHECK(write_plain(at("sweep/notes.tmp.txt"), "not ours") == 0);
+    CHECK(write_plain(at("sweep/d.tmp.12x"), "not ours") == 0);
+    CHECK(gv_atomic_sweep(at("sweep"), "b.") == 1);
+    CHECK(gv_atomic_sweep(at("sweep"), NULL) == 1);
+    CHECK(temporaries_in(at("sweep")) == 3); /* the live one and the two that are not ours */
+    CHECK(gv_file_exists(at(name)) && gv_file_exists(at("sweep/d.tmp.12x")));
+}
+
 int main(void)
 {
     snprintf(dir, sizeof dir, "%s", check_tmp_dir());
@@ -213,5 +237,6 @@ int main(void)
     test_symlinks();
     test_regular();
     test_disk_full();
+    test_sweep();
     return check_summary();
 }

@@ -264,6 +264,12 @@ static void test_malformed(void)
                       "end_header\n0123456789ab", "declares 2000000000 rows");
     BAD("absurd-ascii.ply", "ply\nformat ascii 1.0\nelement vertex 9000000000000000000\n" XYZ
                             "end_header\n1 2 3\n", "declares");
+    /* found by fuzz/: rows of no properties take no bytes, so their count was unbounded */
+    BAD("empty-rows.ply", "ply\nformat ascii 1.0\nelement vertex 652999802\nelement face 1\n"
+                          "property list uchar int vertex_indices\nend_header\n3 0 1 2\n",
+        "declares 652999802 rows but no properties");
+    BAD("empty-rows-binary.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\nend_header\n",
+        "no properties");
     BAD("truncated.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 2\n" XYZ
                          "end_header\n0123456789ab0123456789a", "truncated");
     BAD("truncated-ascii.ply", "ply\nformat ascii 1.0\nelement vertex 3\n" XYZ

@@ -84,6 +84,10 @@ int gv_path_follow_links(const char *path, char *out, size_t size);
  * error removes the temporary and leaves the previous file as it was. */
 int gv_atomic_commit(gv_atomic_file *af);
 void gv_atomic_abort(gv_atomic_file *af);
+/* Removes from dir the temporaries (NAME.tmp.PID or NAME.tmp.PID.K) that a killed writer left,
+ * those whose NAME starts with prefix (NULL: all); a live process's are kept. Returns how
+ * many were removed. Long jobs call it on their output folders when they start. */
+int gv_atomic_sweep(const char *dir, const char *prefix);
 /* Writes text and a final newline to path atomically (JSON documents, manifests). */
 int gv_write_text_atomic(const char *path, const char *text);
 

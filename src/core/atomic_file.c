@@ -7,9 +7,12 @@
  * the link stays); a device, FIFO or socket is written into directly; a directory is refused. */
 #include "gaussvid/core.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <stdatomic.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -141,4 +144,38 @@ void gv_atomic_abort(gv_atomic_file *af)
     if (af->f) fclose(af->f);
     af->f = NULL;
     if (!af->direct && af->tmp_path[0]) unlink(af->tmp_path);
+}
+
+/* The writer's pid in a temporary's name NAME.tmp.PID or NAME.tmp.PID.K, or 0. */
+static long temporary_pid(const char *name)
+{
+    const char *tmp = NULL;
+    for (const char *p = strstr(name, ".tmp."); p; p = strstr(p + 1, ".tmp.")) tmp = p;
+    if (!tmp) return 0;
+    char *end;
+    long pid = strtol(tmp + 5, &end, 10);
+    if (end == tmp + 5 || pid <= 0) return 0;
+    if (*end == '.') {
+        const char *k = end + 1;
+        strtol(k, &end, 10);
+        if (end == k) return 0;
+    }
+    return *end ? 0 : pid;
+}
+
+int gv_atomic_sweep(const char *dir, const char *prefix)
+{
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    size_t n = prefix ? strlen(prefix) : 0;
+    int removed = 0;
+    for (struct dirent *e; (e = readdir(d));) {
+        long pid = temporary_pid(e->d_name);
+        if (!pid || pid == (long)getpid() || (n && strncmp(e->d_name, prefix, n))) continue;
+        if (kill((pid_t)pid, 0) == 0 || errno == EPERM) continue; /* alive: it may be writing */
+        char path[4096];
+        if (gv_path_join(path, sizeof path, dir, e->d_name) == 0 && unlink(path) == 0) removed++;
+    }
+    closedir(d);
+    return removed;
 }

@@ -2,11 +2,9 @@
  * resumable. Every scene and interval is checked before anything is trained; finished runs
  * (listed in the manifest, with their clips and record present) are skipped; temporaries left
  * by a killed build are removed; the options must match those of the runs already built. */
-#include <dirent.h>
 #include <errno.h>
 #include <limits.h>
 #include <omp.h>
-#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -84,35 +82,13 @@ static int same_params(const char *dir, const gv_dataset_params *old, const gv_d
     return 0;
 }
 
-/* Removes the temporaries (name.tmp.<pid>) that a killed writer left in dir. Those of a
- * process still running are left alone: it may be another build writing here. */
-static int remove_stale_temporaries(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d) return 0;
-    int removed = 0;
-    struct dirent *e;
-    while ((e = readdir(d))) {
-        const char *tmp = strstr(e->d_name, ".tmp.");
-        char *end;
-        if (!tmp) continue;
-        long pid = strtol(tmp + 5, &end, 10);
-        if (*end || end == tmp + 5 || pid <= 0 || pid == (long)getpid()) continue;
-        if (kill((pid_t)pid, 0) == 0 || errno == EPERM) continue;
-        char path[4096];
-        if (gv_path_join(path, sizeof path, dir, e->d_name) == 0 && unlink(path) == 0) removed++;
-    }
-    closedir(d);
-    return removed;
-}
-
 static int prepare_out_dir(const char *out)
 {
     static const char *subdirs[] = {"", "clips", "runs"};
     for (int i = 0; i < 3; i++) {
         char path[4096];
         if (gv_path_join(path, sizeof path, out, subdirs[i]) != 0 || gv_mkdirs(path) != 0) return -1;
-        int removed = remove_stale_temporaries(path);
+        int removed = gv_atomic_sweep(path, NULL);
         if (removed) gv_info("%s: removed %d temporary file(s) left by an interrupted build", path, removed);
     }
     return 0;

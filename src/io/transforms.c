@@ -250,7 +250,7 @@ static void preceding_key(const char *data, const char *at, char *key, size_t si
         if (*p != ':') continue;
         const char *q = p - 1;
         while (q > data && isspace((unsigned char)*q)) q--;
-        if (*q != '"') continue;
+        if (*q != '"' || q == data) continue; /* the key's closing quote, with room for its opening one */
         const char *s = q - 1;
         while (s > data && *s != '"') s--;
         if (*s == '"') snprintf(key, size, "%.*s", (int)(q - s - 1), s + 1);
