@@ -125,9 +125,10 @@ typedef struct {
     long steps;                  /* S: optimiser steps of the whole run */
     long stop_after;             /* end this invocation after that step (0: at S), as if interrupted */
     int batch;                   /* clips per step (gradients accumulated) */
-    double lr, min_lr;           /* AdamW learning rate; cosine decay to min_lr when cosine */
+    double lr, min_lr;           /* AdamW learning rate; the decays end at min_lr at step S */
     long warmup;                 /* linear warm-up steps */
-    int cosine;
+    gv_lr_kind lr_schedule;      /* after the warm-up: constant (fine-tuning's default), cosine
+                                    (pretraining's) or linear (optim.h) */
     double weight_decay, clip_norm;
     uint64_t seed;
     long checkpoint_every;       /* steps between resumable checkpoints (out + ".ckpt") */

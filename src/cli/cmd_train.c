@@ -53,7 +53,7 @@ int cmd_train(int argc, char **argv)
     gv_train_options o;
     gv_train_defaults(&o, GV_OBJECTIVE_FINETUNE);
     const char *clips = NULL, *base = NULL, *config = NULL, *vae = NULL, *variant = NULL, *out = NULL, *log = NULL;
-    const char *val_clips = NULL, *val_log = NULL, *crop = NULL;
+    const char *val_clips = NULL, *val_log = NULL, *crop = NULL, *schedule = "constant";
     int steps = (int)o.steps, warmup = 0, seed = 0, ckpt = (int)o.checkpoint_every, stop_after = 0, s_w = 0;
     int val_every = 0;
     int no_curriculum = 0, no_progressive = 0;
@@ -66,8 +66,10 @@ int cmd_train(int argc, char **argv)
         {"variant", GV_FLAG_STRING, &variant, "V", "ablation: camera=none|early|monolithic|decomposed, anchors=none|first|both, per-frame, lora=R", 0},
         {"steps", GV_FLAG_INT, &steps, "N", "optimiser steps S (default 5000)", 0},
         {"batch", GV_FLAG_INT, &o.batch, "B", "clips per step (default 2)", 0},
-        {"lr", GV_FLAG_DOUBLE, &o.lr, "LR", "AdamW learning rate, constant (default 1e-4, the paper's)", 0},
+        {"lr", GV_FLAG_DOUBLE, &o.lr, "LR", "AdamW learning rate after the warm-up (default 1e-4, the paper's)", 0},
         {"warmup", GV_FLAG_INT, &warmup, "N", "linear learning-rate warm-up steps (default 0)", 0},
+        {"lr-schedule", GV_FLAG_STRING, &schedule, "NAME",
+         "after the warm-up: constant (default, the paper's), linear or cosine (both decay to 0 at step S)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "random seed: adapters, data order, timesteps, noise (default 0)", 0},
         {"no-curriculum", GV_FLAG_BOOL, &no_curriculum, NULL, "ablation: shuffled clips, all weighted 1", 0},
         {"no-progressive-loss", GV_FLAG_BOOL, &no_progressive, NULL, "ablation: flow matching loss only", 0},
@@ -107,13 +109,17 @@ int cmd_train(int argc, char **argv)
         return 2;
     }
     if (crop && gv_parse_crop("train", crop, &o.crop_h, &o.crop_w)) return 2;
+    if (gv_lr_kind_from_name(schedule, &o.lr_schedule)) {
+        fprintf(stderr, "gaussvid train: --lr-schedule: %s\n", gv_last_error());
+        return 2;
+    }
     if ((val_every || val_log) && !val_clips) {
         fprintf(stderr, "gaussvid train: --val-every and --val-log need --val-clips\n");
         return 2;
     }
     o.steps = steps, o.warmup = warmup, o.seed = (uint64_t)seed, o.checkpoint_every = ckpt, o.stop_after = stop_after;
     o.latent_warmup = s_w, o.curriculum = !no_curriculum, o.progressive = !no_progressive;
-    o.min_lr = o.lr, o.out = out, o.log_path = log;
+    o.min_lr = o.lr_schedule == GV_LR_CONSTANT ? o.lr : 0.0, o.out = out, o.log_path = log;
     o.val_every = val_every ? val_every : ckpt, o.val_log = val_log;
 
     gv_model_config cfg;

@@ -213,7 +213,7 @@ int gv_train_run(gv_dit *m, const gv_model_config *save_cfg, const gv_latent_set
     long start = st.step, end = o->stop_after > 0 && o->stop_after < o->steps ? o->stop_after : o->steps;
     loop_ctx x;
     int rc = ctx_init(&x, data, o, start > 0);
-    gv_lr_schedule sched = {o->cosine ? GV_LR_COSINE : GV_LR_CONSTANT, o->lr, o->min_lr, o->warmup, o->steps};
+    gv_lr_schedule sched = {o->lr_schedule, o->lr, o->min_lr, o->warmup, o->steps};
     int curriculum = x.difficulty != NULL;
     gv_progress bar;
     gv_progress_start(&bar, o->objective == GV_OBJECTIVE_PRETRAIN ? "pretrain" : "train", end > start ? end - start : 0);
