@@ -12,7 +12,7 @@ scene   : io          : scene synth
 splat   : scene       : splat splat_train render
 nn      : core        : tensor ops optim nn
 model   : io nn       : model_config dit vae plucker weight_names
-data    : splat       : dataset
+data    : splat       : dataset internal_pairs
 train   : model data  : train condition checkpoint vae_train
 restore : train       : restore
 eval    : restore     : eval lpips
