@@ -301,6 +301,17 @@ static void test_eval_table(const char *tmp)
     CHECK_NEAR(t.mean.ssim_rest, ssim_rest_sum / 9, 1e-12);
     CHECK(t.mean.psnr_rest > t.mean.psnr_base && t.mean.ssim_rest > t.mean.ssim_base);
     CHECK_FAILS_WITH(gv_eval_add(&t, NULL, NULL), "already finished");
+    /* a clip with frames without ground truth (target_mask): only frame 2 is measured */
+    gv_eval_table masked;
+    gv_eval_init(&masked, NULL);
+    gv_clip clip;
+    CHECK(rf_make_clip(&clip, "room", "train", 12, W, H, 30, 41) == 0);
+    clip.info.no_target[1] = clip.info.no_target[3] = 1;
+    CHECK(gv_eval_add(&masked, &clip, clip.targets) == 0);
+    gv_eval_finish(&masked);
+    CHECK(masked.mean.clips == 1 && masked.mean.frames == 1);
+    CHECK_NEAR(masked.mean.psnr_base, psnr_here(clip.inputs + 2 * fb, clip.targets + 2 * fb, fb), 1e-5);
+    gv_clip_free(&clip);
     /* JSON: the means and the per-n table */
     char path[4200];
     snprintf(path, sizeof path, "%s/eval.json", tmp);
