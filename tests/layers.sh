@@ -13,8 +13,8 @@ splat   : scene       : splat splat_train render
 nn      : core        : tensor ops optim nn
 model   : io nn       : model_config dit vae plucker weight_names
 data    : splat       : dataset internal_pairs
-train   : model data  : train condition checkpoint vae_train
-restore : train       : restore
+train   : model data  : train condition checkpoint vae_train scene_adapt
+restore : train       : restore adapt
 eval    : restore     : eval lpips
 bench   : restore     : -
 cli     : eval bench  : -

@@ -120,6 +120,7 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
                     const float *eps, double scale, int backward, gv_sample_losses *out);
 
 /* ---- training runs (train/trainer.c) -------------------------------------------------------- */
+struct gv_validation;
 typedef struct {
     gv_objective objective;
     long steps;                  /* S: optimiser steps of the whole run */
@@ -150,6 +151,10 @@ typedef struct {
     const gv_latent_set *val;    /* fine-tuning: clips to validate on (NULL: none); not part of the trajectory */
     long val_every;              /* steps between validations (also at the first and the last step) */
     const char *val_log;         /* tab-separated validation log, or NULL */
+    /* called after each validation with the network at that step (NULL: none), e.g. to keep
+     * the best step (gv_adapt_train); it must not change the network */
+    int (*on_validation)(void *ctx, gv_dit *m, long step, const struct gv_validation *v);
+    void *on_validation_ctx;
 } gv_train_options;
 
 /* The defaults of an objective (docs/TRAINING.md). */
@@ -182,7 +187,7 @@ void gv_train_data_text(const gv_latent_set *data, const char *split, char *out,
 /* ---- validation (train/validate.c) ---------------------------------------------------------- */
 #define GV_VAL_TIMES 4           /* timesteps per clip, evenly spaced in [0, t_max] */
 #define GV_VAL_GROUPS 16         /* intervals n told apart */
-typedef struct {
+typedef struct gv_validation {
     int groups;                  /* distinct intervals n, in order of appearance */
     int n[GV_VAL_GROUPS], clips[GV_VAL_GROUPS];
     double loss[GV_VAL_GROUPS];  /* mean velocity MSE = restored latent MSE (one step eps - v) */

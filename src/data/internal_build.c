@@ -116,8 +116,11 @@ static int build_subset(const build_ctx *b, int p)
     view.n_frames = b->scene->n_frames - first;
     int views = (view.n_frames - 1) / (2 * n) + 1, clips = 0;
     for (int i = 0; i < b->count; i++) clips += b->clips[i].parity == p;
-    gv_info("internal pairs: %s subset %d of 2 (views %d, %d, ..., %d: %d views at interval %d), %d clips", b->name,
-            p + 1, first, first + 2 * n, first + (views - 1) * 2 * n, views, 2 * n, clips);
+    char list[96];
+    if (views == 2) snprintf(list, sizeof list, "%d and %d", first, first + 2 * n);
+    else snprintf(list, sizeof list, "%d, %d, ..., %d", first, first + 2 * n, first + (views - 1) * 2 * n);
+    gv_info("internal pairs: %s subset %d of 2 (views %s: %d views at interval %d), %d clip%s", b->name, p + 1, list,
+            views, 2 * n, clips, clips == 1 ? "" : "s");
     uint64_t seed = gv_run_seed(b->o->seed, b->name, 2 * n) ^ (p ? PARITY_SEED : 0);
     void *model = NULL;
     if (b->sim->train(b->sim->ctx, &view, 2 * n, b->o->iters, seed, &model))

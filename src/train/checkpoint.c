@@ -9,6 +9,7 @@
 
 #include "gaussvid/condition.h"
 #include "gaussvid/core.h"
+#include "gaussvid/scene_adapt.h"
 #include "train/train_internal.h"
 
 void gv_checkpoint_vae_checksum(const gv_vae *vae, char *out, size_t size)
@@ -64,8 +65,8 @@ int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state 
     if (gv_model_config_parse(cfg, json, f->path)) return -1;
     memset(s, 0, sizeof *s);
     meta_text(f, "kind", s->kind, sizeof s->kind);
-    if (strcmp(s->kind, "base") && strcmp(s->kind, "finetune"))
-        return gv_fail("%s: metadata kind is \"%s\", expected base or finetune", f->path, s->kind);
+    if (strcmp(s->kind, "base") && strcmp(s->kind, "finetune") && strcmp(s->kind, GV_SCENE_CHECKPOINT_KIND))
+        return gv_fail("%s: metadata kind is \"%s\", expected base, finetune or scene", f->path, s->kind);
     const char *seed_text = gv_st_metadata(f, "seed");
     char *end = NULL;
     if (meta_long(f, "step", &s->step) || meta_long(f, "steps", &s->steps) || meta_long(f, "adamw_step", &s->adamw_step) ||
@@ -115,6 +116,12 @@ unsigned gv_dit_param_part(const gv_dit *m, const char *name)
 {
     const gv_weight_spec *s = gv_weight_list_find(&m->weights, name);
     return s ? gv_module_part(s->module) : 0;
+}
+
+int gv_dit_param_is_adapter(const gv_dit *m, const char *name)
+{
+    const gv_weight_spec *s = gv_weight_list_find(&m->weights, name);
+    return s && s->trainable;
 }
 
 /* Reads every tensor of m from the file; a base may lack its (zero-start) LoRA adapters. */
@@ -170,6 +177,10 @@ int gv_checkpoint_load(const char *path, gv_dit *m, gv_vae *vae, gv_model_config
     if (vae) memset(vae, 0, sizeof *vae);
     if (gv_ckpt_open(&f, path)) return -1;
     int rc = gv_ckpt_read_meta(&f, cfg, &s);
+    if (rc == 0 && !strcmp(s.kind, GV_SCENE_CHECKPOINT_KIND)) { /* adapters over the base it names */
+        gv_st_close(&f);
+        return gv_scene_checkpoint_load(path, m, vae, cfg);
+    }
     if (rc == 0) rc = gv_dit_init(m, cfg, 0);
     if (rc == 0) rc = load_network(&f, m, &s);
     if (rc == 0 && vae) rc = load_vae(&f, cfg, &s, vae);

@@ -183,6 +183,8 @@ static int validate(gv_dit *m, loop_ctx *x, const gv_train_state *st, gv_progres
                 v.all_gain_db);
         fflush(x->val_log);
     }
+    if (x->o->on_validation && x->o->on_validation(x->o->on_validation_ctx, m, st->step, &v))
+        return gv_fail_context("step %ld", st->step);
     return 0;
 }
 
