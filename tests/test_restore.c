@@ -438,7 +438,7 @@ static void test_runs(const char *tmp)
     CHECK(rf_make_dataset(dir, specs, 3, W, H, 40) == 0);
     setup s;
     CHECK(setup_make(&s, NULL, 50) == 0);
-    gv_restore_options o = {gv_sampler_default(), GV_COMPOSE_RESIDUAL, "eval", NULL, 0, 1, NULL, NULL, NULL};
+    gv_restore_options o = {gv_sampler_default(), GV_COMPOSE_RESIDUAL, "eval", NULL, 0, 1, NULL, NULL, NULL, 0};
     /* identity + residual: the restored numbers are the baseline's, exactly */
     CHECK(gv_sampler_from_name("identity", &o.sampler) == 0);
     gv_eval_table t;
@@ -477,6 +477,26 @@ static void test_runs(const char *tmp)
         gv_image_free(&img);
     }
     gv_clip_free(&orig), gv_clip_free(&saved);
+    /* keep_renders (a scene checkpoint's closed gate): no network, no VAE, no cache; the
+     * written clip is the input file byte for byte, and the table's restored = baseline */
+    gv_restore_options keep = o;
+    char kept[4096];
+    snprintf(kept, sizeof kept, "%s/kept", tmp);
+    keep.keep_renders = 1, keep.use_cache = 1, keep.out_dir = kept, keep.save_clips = 1;
+    gv_eval_table k;
+    gv_eval_init(&k, NULL);
+    CHECK(gv_restore_dataset(NULL, NULL, dir, into(&keep, &k)) == 0);
+    gv_eval_finish(&k);
+    CHECK(k.mean.clips == 2 && k.mean.psnr_rest == k.mean.psnr_base && k.mean.ssim_rest == k.mean.ssim_base);
+    char *x, *y;
+    size_t nx, ny;
+    snprintf(path, sizeof path, "%s/beta_n08_002.safetensors", kept);
+    CHECK(gv_read_file(path, &x, &nx) == 0 && gv_read_file(p2, &y, &ny) == 0);
+    CHECK(nx == ny && !memcmp(x, y, nx));
+    free(x), free(y);
+    gv_eval_init(&k, NULL);
+    keep.out_dir = NULL;
+    CHECK(gv_restore_files(NULL, NULL, paths, 2, into(&keep, &k)) == 0 && k.mean.clips == 2);
     /* bad inputs name the file and the problem */
     o.each = NULL;
     snprintf(path, sizeof path, "%s/nothing.safetensors", tmp);

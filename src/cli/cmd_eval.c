@@ -48,6 +48,13 @@ int cmd_eval(int argc, char **argv)
     char vae_path[4200];
     if (gv_restore_cli_load(c.ckpt, &m, &vae, &cfg, vae_path, sizeof vae_path)) return gv_report_failure();
     o.vae_path = vae_path;
+    char gate_line[1024];
+    const char *gate;
+    if (gv_restore_cli_gate(c.ckpt, &o, gate_line, sizeof gate_line, &gate)) {
+        gv_dit_free(&m), gv_vae_free(&vae);
+        return gv_report_failure();
+    }
+    fputs(gate_line, stdout);
     gv_lpips lpips;
     int failed;
     const gv_lpips *net = gv_restore_cli_lpips(&c, &lpips, &failed);
@@ -64,9 +71,9 @@ int cmd_eval(int argc, char **argv)
         gv_eval_print_markdown(&table, stdout);
     }
     if (rc == 0 && json) {
-        const char *keys[5] = {"checkpoint", "sampler", "compose", "split", "clips_dir"};
-        const char *values[5] = {c.ckpt, text, gv_compose_name(o.compose), c.split, clips};
-        rc = gv_eval_write_json(&table, json, keys, values, 5);
+        const char *keys[6] = {"checkpoint", "sampler", "compose", "split", "clips_dir", "gate"};
+        const char *values[6] = {c.ckpt, text, gv_compose_name(o.compose), c.split, clips, gate};
+        rc = gv_eval_write_json(&table, json, keys, values, gate ? 6 : 5);
     }
     if (rc == 0 && identity) {
         /* restore.h: the identity sampler with residual composition reproduces the inputs */

@@ -7,6 +7,7 @@
 #include "cli/cmd_restore.h"
 #include "cli/commands.h"
 #include "gaussvid/core.h"
+#include "gaussvid/scene_adapt.h"
 
 void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
 {
@@ -78,6 +79,24 @@ int gv_restore_cli_load(const char *ckpt, gv_dit *m, gv_vae *vae, gv_model_confi
     return 0;
 }
 
+int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, size_t size, const char **gate)
+{
+    line[0] = '\0';
+    *gate = NULL;
+    int is = gv_scene_checkpoint_is(ckpt);
+    gv_scene_adaptation a;
+    if (is <= 0) return is;
+    if (gv_scene_checkpoint_read(ckpt, &a)) return -1;
+    o->keep_renders = !a.gate_open;
+    *gate = a.gate_open ? "open" : "closed";
+    snprintf(line, size,
+             "%s: adapted to %s at n = %d; gate %s: its held-back pairs %+.2f dB when restored (margin %+.2f dB), so "
+             "the renders are %s\n",
+             ckpt, a.scene, a.interval, *gate, gv_scene_gate_change(&a), a.gate_margin_db,
+             a.gate_open ? "restored" : "left unchanged");
+    return 0;
+}
+
 int cmd_restore(int argc, char **argv)
 {
     gv_restore_cli c = {0};
@@ -114,6 +133,13 @@ int cmd_restore(int argc, char **argv)
     char vae_path[4200];
     if (gv_restore_cli_load(c.ckpt, &m, &vae, &cfg, vae_path, sizeof vae_path)) return gv_report_failure();
     o.out_dir = out, o.save_clips = save_clips, o.vae_path = vae_path;
+    char gate_line[1024];
+    const char *gate;
+    if (gv_restore_cli_gate(c.ckpt, &o, gate_line, sizeof gate_line, &gate)) {
+        gv_dit_free(&m), gv_vae_free(&vae);
+        return gv_report_failure();
+    }
+    fputs(gate_line, stdout);
     gv_lpips lpips;
     int failed;
     const gv_lpips *net = gv_restore_cli_lpips(&c, &lpips, &failed);

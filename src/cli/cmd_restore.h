@@ -22,6 +22,10 @@ int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o);
 /* Loads the checkpoint's network (frozen) and VAE; vae_path receives the VAE file it names
  * (or the checkpoint itself when it holds the VAE). */
 int gv_restore_cli_load(const char *ckpt, gv_dit *m, gv_vae *vae, gv_model_config *cfg, char *vae_path, size_t size);
+/* A scene checkpoint's gate (scene_adapt.h): sets o->keep_renders when it is closed and writes
+ * the line that says what happens into line (empty for other checkpoints); *gate gets "open",
+ * "closed" or NULL. */
+int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, size_t size, const char **gate);
 /* Loads the LPIPS weights of --lpips into net and returns it, or NULL without the flag;
  * *failed is set when the file does not load. */
 const gv_lpips *gv_restore_cli_lpips(const gv_restore_cli *c, gv_lpips *net, int *failed);

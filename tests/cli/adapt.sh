@@ -5,7 +5,7 @@
 # with a VAE that packs frames, a missing model) failing with one line and writing nothing.
 # restore and eval with a scene checkpoint: a closed gate leaves the renders bit-identical
 # and says so; an open gate restores.
-# Fixtures: a tiny synthesised scene (14 frames of 32x32), the tiny preset with a VAE of
+# Fixtures: a tiny synthesised scene (18 frames of 32x32), the tiny preset with a VAE of
 # temporal factor 1 (tiny1.json), its VAE and base trained for two steps.
 # Usage: bash adapt.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
@@ -25,7 +25,7 @@ cd "$T" || exit 1
 sed -e 's/"temperal_downsample": \[false, true, true\]/"temperal_downsample": [false, false, false]/' \
     -e 's/"temporal_factor": 4/"temporal_factor": 1/' -e 's/"name": "tiny"/"name": "tiny1"/' "$CONFIGS/tiny.json" >tiny1.json
 check "tiny1 config made" grep -q '"temporal_factor": 1' tiny1.json
-expect 0 "synth" -- "$G" scene synth --seed 3 --frames 14 --size 32x32 --samples 1 --out A --quiet
+expect 0 "synth" -- "$G" scene synth --seed 3 --frames 18 --size 32x32 --samples 1 --out A --quiet
 expect 0 "dataset" -- "$G" dataset build --scenes A --intervals 6 --iters 20 --clips-per-run 2 --seed 5 --out D \
     --quiet --threads 1
 expect 0 "vae" -- "$G" vae train --config tiny1.json --scenes A --steps 2 --crop 32x32 --stats-clips 2 \
@@ -45,13 +45,13 @@ expect 2 "unknown schedule" -- "$G" adapt --scene A --interval 3 --base base.saf
     --lr-schedule step
 one_line "expected constant, cosine or linear"
 
-# 14 frames at n = 3: training views 0, 3, 6, 9, 12; three internal clips, the second held back.
-AD=(--scene A --interval 3 --base base.safetensors --config tiny1.json --iters 20 --steps 4 --val-every 2 --threads 1)
+# 18 frames at n = 4: training views 0, 4, 8, 12, 16; three internal clips, the second held back.
+AD=(--scene A --interval 4 --base base.safetensors --config tiny1.json --iters 20 --steps 4 --val-every 2 --threads 1)
 expect 0 "adapt" -- "$G" adapt "${AD[@]}" --out a.safetensors
-has "a.safetensors: A n=3: 2 internal clips trained on, 1 held back"
+has "a.safetensors: A n=4: 2 internal clips trained on, 1 held back"
 has "gate "
 exists a.safetensors.work/pairs/manifest.json
-exists a.safetensors.work/pairs/clips/A_n06_002.safetensors
+exists a.safetensors.work/pairs/clips/A_n08_002.safetensors
 exists a.safetensors.work/best.safetensors
 check "validation at steps 0, 2, 4" test "$(grep -c all a.safetensors.work/val.tsv)" -eq 3
 check "kind scene" grep -qE '"kind":[[:space:]]*"scene"' <("$G" st inspect --json a.safetensors)
@@ -87,9 +87,33 @@ expect 0 "gate open" -- "$G" adapt "${AD[@]}" --out open.safetensors --work b.wo
 has "gate open"
 check "same adapters either way" same_data closed.safetensors open.safetensors
 
+# restore and eval honour the gate, on the scene's renders at n = 4 (a dataset of scene A).
+expect 0 "renders at n = 4" -- "$G" dataset build --scenes A --intervals 4 --iters 20 --clips-per-run 2 --seed 5 \
+    --out R --quiet --threads 1
+clips=(R/clips/*.safetensors)
+check "two clips to restore" test "${#clips[@]}" -eq 2
+expect 0 "restore, gate closed" -- "$G" restore --ckpt closed.safetensors --clips R --out kept --save-clips --quiet
+has "gate closed"
+has "the renders are left unchanged"
+for c in "${clips[@]}"; do
+    check "closed gate: $(basename "$c") unchanged, byte for byte" cmp -s "$c" "kept/$(basename "$c")"
+done
+expect 0 "eval, gate closed" -- "$G" eval --ckpt closed.safetensors --clips R --split all --json closed.json --quiet
+has "left unchanged"
+check "eval JSON names the gate" grep -qE '"gate":[[:space:]]*"closed"' closed.json
+psnrs() { grep -oE '"psnr":[[:space:]]*[-0-9.e+]+' "$1" | head -2 | sed 's/.*://' | tr -d ' ' | uniq | wc -l; }
+check "closed gate: restored PSNR = baseline PSNR" test "$(psnrs closed.json)" -eq 1
+expect 0 "restore, gate open" -- "$G" restore --ckpt open.safetensors --clips R --out restored --save-clips --quiet
+has "gate open"
+has "the renders are restored"
+files_differ() { ! cmp -s "$1" "$2"; }
+check "open gate: the network restores" files_differ "${clips[0]}" "restored/$(basename "${clips[0]}")"
+expect 0 "restore one clip, gate closed" -- "$G" restore --ckpt closed.safetensors --clip "${clips[1]}" --out one --quiet
+has "left unchanged"
+
 # Bad inputs: one line naming the problem, exit 1, nothing written.
-expect 1 "too few training views" -- "$G" adapt "${AD[@]}" --interval 4 --out x.safetensors
-one_line "need at least 5 (at least 17 frames)"
+expect 1 "too few training views" -- "$G" adapt "${AD[@]}" --interval 5 --out x.safetensors
+one_line "need at least 5 (at least 21 frames)"
 sed -e 's/"dim": 32/"dim": 48/' tiny1.json >wide.json
 expect 1 "another network" -- "$G" adapt "${AD[@]}" --config wide.json --out x.safetensors
 one_line "a checkpoint of another network"
