@@ -2,9 +2,14 @@
 JOBS ?= $(shell nproc)
 BUILD := build
 ASAN_BUILD := build-asan
+FUZZ_BUILD := build-fuzz
+# Seconds per libFuzzer harness for `make fuzz` (`make test` runs each for 10, with a fixed
+# seed); FUZZ_SEED fixes libFuzzer's seed when set.
+FUZZ_SECONDS ?= 60
+FUZZ_SEED ?=
 DEMO := demo
 
-.PHONY: all setup build run test test-asan bench clean
+.PHONY: all setup build run test test-asan fuzz bench clean
 
 all: build
 
@@ -26,6 +31,7 @@ export OMP_WAIT_POLICY ?= passive
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 	@$(MAKE) --no-print-directory test-asan
+	@$(MAKE) --no-print-directory fuzz FUZZ_SECONDS=10 FUZZ_SEED=1
 
 # The unit tests again under AddressSanitizer and UBSan.
 test-asan: setup
@@ -33,8 +39,16 @@ test-asan: setup
 	@cmake --build $(ASAN_BUILD) -j $(JOBS)
 	@cd $(ASAN_BUILD) && ctest --output-on-failure -j $(JOBS) -L unit
 
+# Every reader under libFuzzer with AddressSanitizer and UBSan, one harness at a time
+# (fuzz/run.sh; docs/RELIABILITY.md): fails on a crash, leak, slow input or sanitizer report.
+fuzz:
+	@bash scripts/setup.sh fuzz
+	@cmake -S . -B $(FUZZ_BUILD) -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Debug -DGV_FUZZ=ON >/dev/null
+	@cmake --build $(FUZZ_BUILD) --target fuzzers -j $(JOBS)
+	@FUZZ_SEED=$(FUZZ_SEED) bash fuzz/run.sh $(FUZZ_BUILD) $(FUZZ_SECONDS)
+
 bench: build
 	@$(BUILD)/gaussvid bench all
 
 clean:
-	rm -rf $(BUILD) $(ASAN_BUILD)
+	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD)

@@ -1,7 +1,7 @@
 /* `gaussvid bench splat`: speed of sparse-view 3DGS training (DESIGN.md section 5).
  * For each scene (the shared courtyard and livingroom by default), trains on every 6th frame
- * for 8000 iterations as the dataset builder does, once with the default density control
- * (MCMC) and once with `--densify reference`, one after the other in the same process, and
+ * for 8000 iterations as the dataset builder does, once with MCMC density control and once
+ * with the reference's (the default), one after the other in the same process, and
  * reports for each run:
  * - the median milliseconds per iteration of each phase of the loop (render forward, loss,
  *   backward, densification, Adam) and the seconds for the whole run;
@@ -160,7 +160,7 @@ static int evaluate(const gv_splat_trainer *t, const gv_scene *scene, int interv
     int nh = 0, nt = 0;
     res->held_psnr = res->held_ssim = res->train_psnr = res->train_ssim = 0;
     for (int i = 0; i < n && ok == 0; i++) {
-        if (i % interval == 0) res->train_psnr += m[i].psnr, res->train_ssim += m[i].ssim, nt++;
+        if (gv_scene_is_train(i, interval)) res->train_psnr += m[i].psnr, res->train_ssim += m[i].ssim, nt++;
         else res->held_psnr += m[i].psnr, res->held_ssim += m[i].ssim, nh++;
     }
     if (nt) res->train_psnr /= nt, res->train_ssim /= nt;
@@ -400,7 +400,7 @@ int gv_bench_splat_command(int argc, char **argv)
     const gv_command_spec spec = {
         "bench splat", NULL, "sparse-view 3DGS training speed: phases, kernel stages, quality",
         "Trains on every 6th frame of each scene for 8000 iterations (the dataset's early stop),\n"
-        "with the default density control (mcmc) and with --densify reference, and prints for\n"
+        "with MCMC density control and with the reference's (the default), and prints for\n"
         "each run the median ms per iteration of each phase, the Gaussian count and the median\n"
         "time of each kernel stage every 1000 iterations, the seconds for the run, its peak RSS\n"
         "and the final held-out PSNR / SSIM; then both modes side by side with the ratio of\n"

@@ -79,23 +79,18 @@ static int time_run(const char *preset, int height, int width, const char *dir, 
     gv_latent_set set;
     if (gv_model_config_load(&cfg, preset) || (r->variant && gv_model_config_set_variant(&cfg, r->variant, "bench")))
         return -1;
-    gv_model_config net = cfg;
-    if (r->objective == GV_OBJECTIVE_PRETRAIN) net.lora.rank = 0;
     gv_dit m;
-    if (make_set(&cfg, height, width, &set) || gv_dit_init(&m, &net, 1)) {
-        gv_latent_set_free(&set);
-        return -1;
-    }
-    int rc = gv_dit_set_train_mode(&m, r->objective == GV_OBJECTIVE_PRETRAIN ? GV_DIT_FULL : GV_DIT_FINETUNE);
+    gv_train_state meta;
+    memset(&meta, 0, sizeof meta);
+    memset(&m, 0, sizeof m);
+    int rc = make_set(&cfg, height, width, &set);
+    if (rc == 0) rc = gv_train_model(&cfg, r->objective, NULL, 0, 1, &m, &meta);
     char out[4200], ckpt[4300];
     snprintf(out, sizeof out, "%s/run.safetensors", dir);
     snprintf(ckpt, sizeof ckpt, "%s.ckpt", out);
     gv_train_options o;
     gv_train_defaults(&o, r->objective);
     o.steps = r->steps, o.checkpoint_every = r->steps, o.out = out;
-    gv_train_state meta;
-    memset(&meta, 0, sizeof meta);
-    snprintf(meta.kind, sizeof meta.kind, "%s", r->objective == GV_OBJECTIVE_PRETRAIN ? "base" : "finetune");
     gv_train_report rep;
     int level = gv_log_level();
     gv_log_set_level(GV_LOG_QUIET);

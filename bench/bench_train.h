@@ -12,5 +12,7 @@
 int gv_bench_train(const gv_bench_options *o, const char *preset, int height, int width, FILE *out);
 /* `gaussvid bench train [--json] [--quick] [--preset P]` */
 int gv_bench_train_command(int argc, char **argv);
+/* `gaussvid bench import --dir DIR [--preset P] [--dtype BF16|F32] [--shards N]` (bench_import.c) */
+int gv_bench_import_command(int argc, char **argv);
 
 #endif

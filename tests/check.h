@@ -37,6 +37,18 @@ static int check_passed, check_failed;
                                        __FILE__, __LINE__, (needle), #call, check_rc_, check_msg_); } \
     } while (0)
 
+/* A CHECK that ends the calling void function when it fails (what follows would index nothing). */
+#define REQUIRE(cond)                                                                   \
+    do {                                                                                \
+        if (cond) check_passed++;                                                       \
+        else { check_failed++; fprintf(stderr, "%s:%d: REQUIRE failed: %s (%s)\n", __FILE__, \
+                                       __LINE__, #cond, gv_last_error()); return; }     \
+    } while (0)
+
+/* The exit status of a test that cannot run here (its data is missing): ctest counts it as
+ * skipped, not passed (SKIP_RETURN_CODE in tests/tests.cmake). */
+enum { CHECK_SKIP = 77 };
+
 static inline int check_summary(void)
 {
     printf("%d passed, %d failed\n", check_passed, check_failed);
@@ -56,7 +68,8 @@ static inline const char *check_tmp_dir(void)
     return dir;
 }
 
-/* The shared data folder, or NULL (with a message) when it is not present. */
+/* The shared data folder, or NULL (with a message) when it is not present: the test then
+ * returns CHECK_SKIP. */
 static inline const char *check_shared_scenes(void)
 {
     static char dir[4096];
@@ -66,7 +79,7 @@ static inline const char *check_shared_scenes(void)
     char probe[4200];
     snprintf(probe, sizeof probe, "%s/courtyard/transforms.json", dir);
     if (!(f = fopen(probe, "r"))) {
-        printf("shared scenes not found under %s: skipping those checks\n", dir);
+        printf("shared scenes not found under %s: skipped\n", dir);
         return NULL;
     }
     fclose(f);

@@ -7,13 +7,13 @@
 # Usage: bash tests/layers.sh SOURCE_DIR
 LAYERS='
 core    : -           : core camera
-io      : core        : image metrics gaussians ply colmap transforms safetensors
-scene   : io          : scene synth
-splat   : scene       : splat splat_train render
+io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files npy json
+scene   : io          : scene synth reproject
+splat   : scene       : splat splat_train render coverage
 nn      : core        : tensor ops optim nn
-model   : io nn       : model_config dit vae plucker weight_names
+model   : io nn       : model_config dit vae plucker weight_names umt5
 data    : splat       : dataset internal_pairs
-train   : model data  : train condition checkpoint vae_train scene_adapt
+train   : model data  : train condition checkpoint vae_train model_import scene_adapt
 restore : train       : restore adapt
 eval    : restore     : eval lpips
 bench   : restore     : -

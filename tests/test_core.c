@@ -69,6 +69,24 @@ static void test_flags(void)
     CHECK(gv_args_parse(&spec, 6, too_many, pos, &npos) == GV_ARGS_ERROR);
 }
 
+/* A list flag: values up to the next option, "=" and commas, repeated; none is an error. */
+static void test_list_flag(void)
+{
+    gv_flag_list l = {.n = 0};
+    int on = 0;
+    const gv_flag flags[] = {{"dirs", GV_FLAG_LIST, &l, "DIR...", "folders", 1}, {"on", GV_FLAG_BOOL, &on, NULL, "a switch", 0}};
+    gv_command_spec spec = {"test", NULL, "a test", NULL, flags, 2, 0, 0};
+    char a[] = "a", bc[] = "b,c", d[] = "--dirs=d", e[] = "e";
+    char *ok[] = {"test", "--dirs", a, bc, "--on", d, "--dirs", e};
+    CHECK(gv_args_parse(&spec, 8, ok, NULL, NULL) == GV_ARGS_OK && on == 1 && l.n == 5);
+    CHECK(l.n == 5 && !strcmp(l.items[0], "a") && !strcmp(l.items[2], "c") && !strcmp(l.items[3], "d") &&
+          !strcmp(l.items[4], "e"));
+    l.n = 0;
+    char *empty[] = {"test", "--dirs", "--on"}, *none[] = {"test", "--on"};
+    CHECK(gv_args_parse(&spec, 3, empty, NULL, NULL) == GV_ARGS_ERROR);
+    CHECK(gv_args_parse(&spec, 2, none, NULL, NULL) == GV_ARGS_ERROR);
+}
+
 static void test_atomic_file(void)
 {
     const char *dir = check_tmp_dir();
@@ -99,6 +117,7 @@ int main(void)
     test_philox_known_answers();
     test_rng_thread_independent();
     test_flags();
+    test_list_flag();
     test_atomic_file();
     return check_summary();
 }

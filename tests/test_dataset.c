@@ -11,8 +11,6 @@
 
 /* ---- sampling ----------------------------------------------------------------------- */
 
-static int is_training(int f, int n) { return f % n == 0; }
-
 /* The uniform rule for anchor gap 1 written independently: nearbyint rounds half to even
  * in the default rounding mode, like Python's round. With gap 1 no position can land on a
  * training view for n >= 4, so no frame moves. */
@@ -27,7 +25,7 @@ static void test_uniform_gap1(void)
             ok &= f[0] == s && f[4] == s + n;
             for (int j = 1; j <= 3; j++) {
                 ok &= f[j] == (int)nearbyint(s + j * n / 4.0);
-                ok &= !is_training(f[j], n) && f[j] > f[j - 1];
+                ok &= !gv_scene_is_train(f[j], n) && f[j] > f[j - 1];
                 ok &= fabs(f[j] - (s + j * n / 4.0)) <= 0.5; /* uniformly spaced, rounded */
             }
         }
@@ -68,9 +66,9 @@ static void test_uniform_wide_gap(void)
             int total = 3 * g * n + 1;
             for (int s = 0; s + g * n < total; s += n) {
                 if (gv_clip_frames(total, n, g, GV_SAMPLING_UNIFORM, s, NULL, f) != 0) { ok = 0; continue; }
-                ok &= f[0] == s && f[4] == s + g * n && is_training(f[0], n) && is_training(f[4], n);
+                ok &= f[0] == s && f[4] == s + g * n && gv_scene_is_train(f[0], n) && gv_scene_is_train(f[4], n);
                 for (int j = 1; j <= 3; j++)
-                    ok &= !is_training(f[j], n) && f[j] > f[j - 1] && f[j] < f[4] &&
+                    ok &= !gv_scene_is_train(f[j], n) && f[j] > f[j - 1] && f[j] < f[4] &&
                           fabs(f[j] - (s + j * g * n / 4.0)) <= n / 2.0 + 1;
             }
         }
@@ -103,7 +101,7 @@ static void test_random(void)
         if (gv_clip_frames(100, 6, 1, GV_SAMPLING_RANDOM, 12, &rng, f) != 0) { ok = 0; break; }
         ok &= f[0] == 12 && f[4] == 18;
         for (int j = 1; j <= 3; j++) {
-            ok &= f[j] > f[j - 1] && f[j] < 18 && !is_training(f[j], 6);
+            ok &= f[j] > f[j - 1] && f[j] < 18 && !gv_scene_is_train(f[j], 6);
             hits[f[j] - 12]++;
         }
     }
@@ -116,7 +114,7 @@ static void test_random(void)
         int f[5];
         ok &= gv_clip_frames(100, 5, 3, GV_SAMPLING_RANDOM, 20, &rng, f) == 0 && f[0] == 20 &&
               f[4] == 35 && f[1] > 20 && f[3] < 35 && f[1] < f[2] && f[2] < f[3] &&
-              !is_training(f[1], 5) && !is_training(f[2], 5) && !is_training(f[3], 5);
+              !gv_scene_is_train(f[1], 5) && !gv_scene_is_train(f[2], 5) && !gv_scene_is_train(f[3], 5);
     }
     CHECK(ok);
     CHECK_FAILS_WITH(gv_clip_frames(100, 6, 1, GV_SAMPLING_RANDOM, 12, NULL, (int[5]){0}), "random");
@@ -214,9 +212,9 @@ static void rotation(double a, float R[9])
 static void make_clip(gv_clip *clip, int w, int h, uint64_t seed)
 {
     gv_clip_info info = {0};
-    snprintf(info.scene, sizeof info.scene, "room-7");
-    snprintf(info.split, sizeof info.split, "eval");
-    info.n = 6, info.anchor_gap = 1, info.iters = 8000, info.width = w, info.height = h;
+    snprintf(info.id.scene, sizeof info.id.scene, "room-7");
+    snprintf(info.id.split, sizeof info.id.split, "eval");
+    info.id.n = 6, info.anchor_gap = 1, info.iters = 8000, info.width = w, info.height = h;
     info.sampling = GV_SAMPLING_UNIFORM;
     info.seed = 12345678901234ull;
     const int frames[5] = {12, 14, 15, 16, 18};
@@ -246,7 +244,7 @@ static int same_clip(const gv_clip *a, const gv_clip *b)
 {
     const gv_clip_info *x = &a->info, *y = &b->info;
     size_t bytes = (size_t)5 * x->width * x->height * 3;
-    return !strcmp(x->scene, y->scene) && !strcmp(x->split, y->split) && x->n == y->n &&
+    return !strcmp(x->id.scene, y->id.scene) && !strcmp(x->id.split, y->id.split) && x->id.n == y->id.n &&
            x->anchor_gap == y->anchor_gap && x->iters == y->iters && x->width == y->width &&
            x->height == y->height && x->sampling == y->sampling && x->seed == y->seed &&
            !memcmp(x->frames, y->frames, sizeof x->frames) &&
@@ -312,9 +310,9 @@ static void write_tampered2(const char *path, const gv_clip *clip, const char *k
 {
     const gv_clip_info *in = &clip->info;
     char n[16], w[16], h[16];
-    snprintf(n, sizeof n, "%d", in->n), snprintf(w, sizeof w, "%d", in->width), snprintf(h, sizeof h, "%d", in->height);
-    const char *meta[][2] = {{"format", "gaussvid.clip"}, {"format_version", "1"}, {"scene", in->scene},
-                             {"split", in->split}, {"n", n}, {"anchor_gap", "1"},
+    snprintf(n, sizeof n, "%d", in->id.n), snprintf(w, sizeof w, "%d", in->width), snprintf(h, sizeof h, "%d", in->height);
+    const char *meta[][2] = {{"format", "gaussvid.clip"}, {"format_version", "1"}, {"scene", in->id.scene},
+                             {"split", in->id.split}, {"n", n}, {"anchor_gap", "1"},
                              {"frame_indices", "[12, 14, 15, 16, 18]"}, {"iters", "8000"},
                              {"sampling", "uniform"}, {"seed", "5"}, {"width", w}, {"height", h}};
     gv_st_builder b;
@@ -418,7 +416,7 @@ static void test_bad_clips(const char *dir)
     snprintf(path, sizeof path, "%s/missing.safetensors", dir);
     CHECK_FAILS_WITH(gv_clip_read(path, &back), "missing.safetensors");
     /* The writer refuses what the reader would refuse, and leaves nothing behind. */
-    snprintf(clip.info.split, sizeof clip.info.split, "test");
+    snprintf(clip.info.id.split, sizeof clip.info.id.split, "test");
     snprintf(path, sizeof path, "%s/refused.safetensors", dir);
     CHECK_FAILS_WITH(gv_clip_write(path, &clip), "split 'test'");
     CHECK(!gv_file_exists(path));
@@ -463,9 +461,9 @@ static gv_manifest_clip clip_entry(const char *scene, int n, int k, const char *
 {
     gv_manifest_clip c = {0};
     gv_clip_file_name(c.file, sizeof c.file, scene, n, k);
-    snprintf(c.scene, sizeof c.scene, "%s", scene);
-    snprintf(c.split, sizeof c.split, "%s", split);
-    c.n = n;
+    snprintf(c.id.scene, sizeof c.id.scene, "%s", scene);
+    snprintf(c.id.split, sizeof c.id.split, "%s", split);
+    c.id.n = n;
     int f[5] = {s, s + 2, s + 3, s + 4, s + n};
     memcpy(c.frames, f, sizeof f);
     return c;
@@ -494,7 +492,7 @@ static void test_manifest(const char *base)
     gv_manifest_clip c1[2] = {clip_entry("zeta", 6, 1, "train", 6), clip_entry("zeta", 6, 0, "train", 0)};
     gv_manifest_clip c2[1] = {clip_entry("alpha", 8, 0, "eval", 8)};
     CHECK(gv_manifest_add_run(&m, &r1, c1, 2) == 0 && gv_manifest_add_run(&m, &r2, c2, 1) == 0);
-    CHECK(m.n_runs == 2 && !strcmp(m.runs[0].scene, "alpha")); /* sorted by scene */
+    CHECK(m.n_runs == 2 && !strcmp(m.runs[0].id.scene, "alpha")); /* sorted by scene */
     CHECK(m.n_clips == 3 && !strcmp(m.clips[1].file, "clips/zeta_n06_000.safetensors"));
     /* Replacing a run drops its previous clips. */
     gv_manifest_run r1b = {"zeta", "train", 6, 1, 13.0};
@@ -506,8 +504,8 @@ static void test_manifest(const char *base)
           back.params.sampling == GV_SAMPLING_RANDOM && back.params.clips_per_run == 2 &&
           back.params.iters == 8000);
     CHECK(!memcmp(back.clips, m.clips, 2 * sizeof *m.clips));
-    CHECK(!strcmp(back.runs[1].scene, "zeta") && back.runs[1].n_clips == 1 &&
-          back.runs[1].seconds == 13.0 && !strcmp(back.runs[0].split, "eval"));
+    CHECK(!strcmp(back.runs[1].id.scene, "zeta") && back.runs[1].n_clips == 1 &&
+          back.runs[1].seconds == 13.0 && !strcmp(back.runs[0].id.split, "eval"));
     gv_manifest_free(&back);
     /* The file a Python reader sees. */
     char *text;
@@ -560,9 +558,9 @@ static void test_run_record(const char *dir)
     char path[4200];
     snprintf(path, sizeof path, "%s/run.json", dir);
     gv_run_record r = {0}, back;
-    snprintf(r.scene, sizeof r.scene, "courtyard");
-    snprintf(r.split, sizeof r.split, "train");
-    r.n = 10, r.iters = 8000, r.n_train = 16, r.n_clips = 4;
+    snprintf(r.id.scene, sizeof r.id.scene, "courtyard");
+    snprintf(r.id.split, sizeof r.id.split, "train");
+    r.id.n = 10, r.iters = 8000, r.n_train = 16, r.n_clips = 4;
     r.seconds = 120.25, r.train_seconds = 100.5, r.render_seconds = 18.0;
     r.train_frames = 16, r.train_psnr = 33.5, r.train_ssim = 0.96875;
     CHECK(gv_run_record_alloc(&r, 3) == 0);
@@ -573,7 +571,7 @@ static void test_run_record(const char *dir)
     CHECK_NEAR(r.ssim_mean, 0.75, 1e-12);
     CHECK(gv_run_record_write(path, &r) == 0);
     CHECK(gv_run_record_read(path, &back) == 0);
-    CHECK(!strcmp(back.scene, "courtyard") && back.n == 10 && back.iters == 8000 &&
+    CHECK(!strcmp(back.id.scene, "courtyard") && back.id.n == 10 && back.iters == 8000 &&
           back.n_train == 16 && back.n_clips == 4 && back.n_held_out == 3);
     CHECK(back.held_out[2] == 3 && back.psnr[1] == 22.25 && back.ssim[0] == 0.5);
     CHECK_NEAR(back.psnr_mean, r.psnr_mean, 1e-9);

@@ -124,9 +124,9 @@ static void test_clip_format(const char *base)
 {
     gv_clip_info info;
     memset(&info, 0, sizeof info);
-    snprintf(info.scene, sizeof info.scene, "s");
-    snprintf(info.split, sizeof info.split, "train");
-    info.n = 6, info.anchor_gap = 1, info.iters = 5, info.width = 4, info.height = 2, info.offset = 3;
+    snprintf(info.id.scene, sizeof info.id.scene, "s");
+    snprintf(info.id.split, sizeof info.id.split, "train");
+    info.id.n = 6, info.anchor_gap = 1, info.iters = 5, info.width = 4, info.height = 2, info.offset = 3;
     const int frames[5] = {3, 5, 6, 7, 9};
     memcpy(info.frames, frames, sizeof frames);
     info.no_target[1] = info.no_target[3] = 1;
@@ -205,7 +205,7 @@ static void check_clips(const char *out, const char *scene_dir)
     gv_manifest m;
     int found = 0;
     CHECK(gv_manifest_read(out, &m, &found) == 0 && found);
-    CHECK(m.n_runs == 1 && m.runs[0].n == 2 * N && !strcmp(m.runs[0].scene, "room") && !strcmp(m.runs[0].split, "train"));
+    CHECK(m.n_runs == 1 && m.runs[0].id.n == 2 * N && !strcmp(m.runs[0].id.scene, "room") && !strcmp(m.runs[0].id.split, "train"));
     CHECK(m.n_clips == 5 && m.params.iters == 7 && m.params.seed == 4 && m.params.clips_per_run == 5);
     gv_internal_clip plan[FRAMES];
     int count;
@@ -219,7 +219,7 @@ static void check_clips(const char *out, const char *scene_dir)
         CHECK(gv_clip_read(path, &c) == 0);
         const gv_clip_info *info = &c.info;
         int first = plan[i].parity * N;
-        CHECK(info->n == 2 * N && info->offset == first && info->iters == 7 && !strcmp(info->split, "train"));
+        CHECK(info->id.n == 2 * N && info->offset == first && info->iters == 7 && !strcmp(info->id.split, "train"));
         CHECK(!memcmp(info->frames, plan[i].frames, sizeof info->frames));
         /* masked: the two held-out frames; the left-out view in the middle has ground truth */
         CHECK(!info->no_target[0] && info->no_target[1] && !info->no_target[2] && info->no_target[3] && !info->no_target[4]);
@@ -240,7 +240,7 @@ static void check_clips(const char *out, const char *scene_dir)
     snprintf(path, sizeof path, "%s/runs/room_n06.json", out);
     gv_run_record r;
     CHECK(gv_run_record_read(path, &r) == 0);
-    CHECK(r.n == 6 && r.n_held_out == 5 && r.n_train == 7 && r.n_clips == 5);
+    CHECK(r.id.n == 6 && r.n_held_out == 5 && r.n_train == 7 && r.n_clips == 5);
     for (int i = 0; i < r.n_held_out; i++) CHECK(r.held_out[i] == 3 * (i + 1) && r.psnr[i] > 0 && r.psnr[i] < 40);
     gv_run_record_free(&r);
 }

@@ -149,9 +149,7 @@ static void test_sampler_math(void)
 
 /* ---- the tiny network on a clip ------------------------------------------------------------- */
 typedef struct {
-    gv_model_config cfg;
-    gv_vae vae;
-    gv_dit model;
+    gv_restorer r; /* cfg, vae and net made here instead of loaded */
     gv_clip clip;
     gv_clip_latents l;
 } setup;
@@ -159,18 +157,17 @@ typedef struct {
 static int setup_make(setup *s, const char *variant, uint64_t seed)
 {
     memset(s, 0, sizeof *s);
-    if (rf_tiny(&s->cfg, &s->vae, variant, seed) || gv_dit_init(&s->model, &s->cfg, seed)) return -1;
-    mt_randomize(&s->model, MT_ALL, seed + 1); /* a stand-in for trained weights */
+    if (rf_tiny(&s->r.cfg, &s->r.vae, variant, seed) || gv_dit_init(&s->r.net, &s->r.cfg, seed)) return -1;
+    mt_randomize(&s->r.net, MT_ALL, seed + 1); /* a stand-in for trained weights */
     if (rf_make_clip(&s->clip, "room", "eval", 6, W, H, 40, seed)) return -1;
-    return gv_clip_latents_prepare(&s->vae, &s->cfg, &s->clip, &s->l);
+    return gv_clip_latents_prepare(&s->r.vae, &s->r.cfg, &s->clip, &s->l);
 }
 
 static void setup_free(setup *s)
 {
     gv_clip_latents_free(&s->l);
     gv_clip_free(&s->clip);
-    gv_dit_free(&s->model);
-    gv_vae_free(&s->vae);
+    gv_restorer_free(&s->r);
 }
 
 static void test_network(void)
@@ -185,21 +182,21 @@ static void test_network(void)
         CHECK(gv_sampler_from_name("iterate", &sp) == 0);
         sp.steps = 2;
         /* reproducible; another seed gives another result */
-        CHECK(gv_restore_latent(&s.model, &s.l, &sp, 11, a) == 0 && gv_restore_latent(&s.model, &s.l, &sp, 11, b) == 0);
+        CHECK(gv_restore_latent(&s.r.net, &s.l, &sp, 11, a) == 0 && gv_restore_latent(&s.r.net, &s.l, &sp, 11, b) == 0);
         CHECK(!memcmp(a, b, (size_t)n * 4));
-        CHECK(gv_restore_latent(&s.model, &s.l, &sp, 12, c) == 0 && memcmp(a, c, (size_t)n * 4));
+        CHECK(gv_restore_latent(&s.r.net, &s.l, &sp, 12, c) == 0 && memcmp(a, c, (size_t)n * 4));
         CHECK(rf_max_diff(a, s.l.z_corrupt, n) > 1e-3);
         /* the camera stream computed once gives the recomputed result bit for bit */
         gv_restore_net net;
-        CHECK(gv_restore_net_init(&net, &s.model, &s.l, 0) == 0 && net.has_cache == 0);
+        CHECK(gv_restore_net_init(&net, &s.r.net, &s.l, 0) == 0 && net.has_cache == 0);
         CHECK(gv_sample(&sp, gv_restore_net_velocity, &net, s.l.z_corrupt, n, 11, c) == 0 && net.evaluations == 2);
         CHECK(!memcmp(a, c, (size_t)n * 4));
         gv_restore_net_free(&net);
-        CHECK(gv_restore_net_init(&net, &s.model, &s.l, 1) == 0 && net.has_cache == (k != 1));
+        CHECK(gv_restore_net_init(&net, &s.r.net, &s.l, 1) == 0 && net.has_cache == (k != 1));
         gv_restore_net_free(&net);
         /* identity: z-hat */
         CHECK(gv_sampler_from_name("identity", &sp) == 0);
-        CHECK(gv_restore_latent(&s.model, &s.l, &sp, 11, c) == 0 && !memcmp(c, s.l.z_corrupt, (size_t)n * 4));
+        CHECK(gv_restore_latent(&s.r.net, &s.l, &sp, 11, c) == 0 && !memcmp(c, s.l.z_corrupt, (size_t)n * 4));
         free(a), free(b), free(c);
         setup_free(&s);
     }
@@ -216,9 +213,9 @@ static void test_compose(void)
         float *z = malloc((size_t)n * 4);
         for (int64_t i = 0; i < n; i++) z[i] = s.l.z_corrupt[i] + 0.3f * (float)sin(0.37 * (double)i);
         uint8_t *dec = malloc((size_t)(5 * fb)), *res = malloc((size_t)(5 * fb)), *ident = malloc((size_t)(5 * fb));
-        CHECK(gv_restore_compose(&s.vae, &s.clip, &s.l, z, GV_COMPOSE_DECODED, dec) == 0);
-        CHECK(gv_restore_compose(&s.vae, &s.clip, &s.l, z, GV_COMPOSE_RESIDUAL, res) == 0);
-        CHECK(gv_restore_compose(&s.vae, &s.clip, &s.l, s.l.z_corrupt, GV_COMPOSE_RESIDUAL, ident) == 0);
+        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_DECODED, dec) == 0);
+        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_RESIDUAL, res) == 0);
+        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, s.l.z_corrupt, GV_COMPOSE_RESIDUAL, ident) == 0);
         /* identity under residual composition: the input clip, exactly */
         CHECK(!memcmp(ident, s.clip.inputs, (size_t)(5 * fb)));
         /* anchors are the input's */
@@ -230,8 +227,8 @@ static void test_compose(void)
         int bad_dec = 0, bad_res = 0, changed = 0;
         for (int b = 0; b < videos; b++) {
             int64_t per = n / videos;
-            CHECK(gv_vae_decode(&s.vae, z + b * per, s.l.latent_frames, 4, 4, 1, 0, d1) == 0);
-            CHECK(gv_vae_decode(&s.vae, s.l.z_corrupt + b * per, s.l.latent_frames, 4, 4, 1, 0, d2) == 0);
+            CHECK(gv_vae_decode(&s.r.vae, z + b * per, s.l.latent_frames, 4, 4, 1, 0, d1) == 0);
+            CHECK(gv_vae_decode(&s.r.vae, s.l.z_corrupt + b * per, s.l.latent_frames, 4, 4, 1, 0, d2) == 0);
             for (int f = 1; f <= 3; f++) {
                 if (k == 1 && f != 1 + b) continue;
                 int vf = k == 0 ? f : 0;
@@ -438,27 +435,27 @@ static void test_runs(const char *tmp)
     CHECK(rf_make_dataset(dir, specs, 3, W, H, 40) == 0);
     setup s;
     CHECK(setup_make(&s, NULL, 50) == 0);
-    gv_restore_options o = {gv_sampler_default(), GV_COMPOSE_RESIDUAL, "eval", NULL, 0, 1, NULL, NULL, NULL, 0};
+    gv_restore_options o = {gv_sampler_default(), GV_COMPOSE_RESIDUAL, "eval", NULL, 0, 1, NULL, NULL, 0};
     /* identity + residual: the restored numbers are the baseline's, exactly */
     CHECK(gv_sampler_from_name("identity", &o.sampler) == 0);
     gv_eval_table t;
     gv_eval_init(&t, NULL);
-    CHECK(gv_restore_dataset(&s.model, &s.vae, dir, into(&o, &t)) == 0);
+    CHECK(gv_restore_dataset(&s.r, dir, into(&o, &t)) == 0);
     gv_eval_finish(&t);
     CHECK(t.mean.clips == 2 && t.n_rows == 2 && t.mean.psnr_rest == t.mean.psnr_base && t.mean.ssim_rest == t.mean.ssim_base);
     /* the network: with and without the latent cache the same numbers; clip files too */
     o.sampler = gv_sampler_default();
     gv_eval_table a, b, c;
     gv_eval_init(&a, NULL), gv_eval_init(&b, NULL), gv_eval_init(&c, NULL);
-    CHECK(gv_restore_dataset(&s.model, &s.vae, dir, into(&o, &a)) == 0);
+    CHECK(gv_restore_dataset(&s.r, dir, into(&o, &a)) == 0);
     o.use_cache = 0, o.out_dir = out, o.save_clips = 1;
-    CHECK(gv_restore_dataset(&s.model, &s.vae, dir, into(&o, &b)) == 0);
+    CHECK(gv_restore_dataset(&s.r, dir, into(&o, &b)) == 0);
     char p1[4200], p2[4200];
     snprintf(p1, sizeof p1, "%s/clips/beta_n06_001.safetensors", dir);
     snprintf(p2, sizeof p2, "%s/clips/beta_n08_002.safetensors", dir);
     const char *paths[2] = {p1, p2};
     o.out_dir = NULL;
-    CHECK(gv_restore_files(&s.model, &s.vae, paths, 2, into(&o, &c)) == 0);
+    CHECK(gv_restore_files(&s.r, paths, 2, into(&o, &c)) == 0);
     gv_eval_finish(&a), gv_eval_finish(&b), gv_eval_finish(&c);
     CHECK(a.mean.clips == 2 && a.mean.psnr_rest == b.mean.psnr_rest && a.mean.psnr_rest == c.mean.psnr_rest &&
           a.mean.ssim_rest == c.mean.ssim_rest);
@@ -468,7 +465,7 @@ static void test_runs(const char *tmp)
     snprintf(path, sizeof path, "%s/beta_n08_002.safetensors", out);
     CHECK(gv_clip_read(p2, &orig) == 0 && gv_clip_read(path, &saved) == 0);
     CHECK(!memcmp(orig.targets, saved.targets, (size_t)5 * W * H * 3) && !memcmp(orig.inputs, saved.inputs, (size_t)W * H * 3));
-    CHECK(memcmp(orig.inputs, saved.inputs, (size_t)5 * W * H * 3) && saved.info.n == 8);
+    CHECK(memcmp(orig.inputs, saved.inputs, (size_t)5 * W * H * 3) && saved.info.id.n == 8);
     for (int f = 0; f < 5; f++) {
         gv_image img;
         snprintf(path, sizeof path, "%s/beta_n08_002/f%d.png", out, f);
@@ -485,7 +482,7 @@ static void test_runs(const char *tmp)
     keep.keep_renders = 1, keep.use_cache = 1, keep.out_dir = kept, keep.save_clips = 1;
     gv_eval_table k;
     gv_eval_init(&k, NULL);
-    CHECK(gv_restore_dataset(NULL, NULL, dir, into(&keep, &k)) == 0);
+    CHECK(gv_restore_dataset(NULL, dir, into(&keep, &k)) == 0);
     gv_eval_finish(&k);
     CHECK(k.mean.clips == 2 && k.mean.psnr_rest == k.mean.psnr_base && k.mean.ssim_rest == k.mean.ssim_base);
     char *x, *y;
@@ -496,27 +493,27 @@ static void test_runs(const char *tmp)
     free(x), free(y);
     gv_eval_init(&k, NULL);
     keep.out_dir = NULL;
-    CHECK(gv_restore_files(NULL, NULL, paths, 2, into(&keep, &k)) == 0 && k.mean.clips == 2);
+    CHECK(gv_restore_files(NULL, paths, 2, into(&keep, &k)) == 0 && k.mean.clips == 2);
     /* bad inputs name the file and the problem */
     o.each = NULL;
     snprintf(path, sizeof path, "%s/nothing.safetensors", tmp);
     const char *missing[1] = {path};
-    CHECK_FAILS_WITH(gv_restore_files(&s.model, &s.vae, missing, 1, &o), "nothing.safetensors");
+    CHECK_FAILS_WITH(gv_restore_files(&s.r, missing, 1, &o), "nothing.safetensors");
     gv_clip odd;
     CHECK(rf_make_clip(&odd, "room", "eval", 6, 20, 32, 5, 1) == 0);
     snprintf(path, sizeof path, "%s/odd.safetensors", tmp);
     CHECK(gv_clip_write(path, &odd) == 0);
     gv_clip_free(&odd);
     const char *odd_path[1] = {path};
-    CHECK_FAILS_WITH(gv_restore_files(&s.model, &s.vae, odd_path, 1, &o), "spatial factor");
+    CHECK_FAILS_WITH(gv_restore_files(&s.r, odd_path, 1, &o), "spatial factor");
     CHECK(strstr(gv_last_error(), "odd.safetensors") != NULL);
     o.split = "test";
-    CHECK_FAILS_WITH(gv_restore_dataset(&s.model, &s.vae, dir, &o), "no test clips");
+    CHECK_FAILS_WITH(gv_restore_dataset(&s.r, dir, &o), "no test clips");
     o.split = "eval";
     o.sampler.t0 = 1.5;
-    CHECK_FAILS_WITH(gv_restore_dataset(&s.model, &s.vae, dir, &o), "t0 1.5");
+    CHECK_FAILS_WITH(gv_restore_dataset(&s.r, dir, &o), "t0 1.5");
     o.sampler.t0 = 0.3;
-    CHECK_FAILS_WITH(gv_restore_dataset(&s.model, &s.vae, tmp, &o), "no manifest.json");
+    CHECK_FAILS_WITH(gv_restore_dataset(&s.r, tmp, &o), "no manifest.json");
     setup_free(&s);
 }
 
@@ -565,11 +562,11 @@ static void test_bad_specs(void)
     gv_restore_net net;
     gv_clip_latents l = st.l;
     l.vace_dim = 40;
-    CHECK_FAILS_WITH(gv_restore_net_init(&net, &st.model, &l, 1), "do not fit");
+    CHECK_FAILS_WITH(gv_restore_net_init(&net, &st.r.net, &l, 1), "do not fit");
     gv_restore_net_free(&net);
     l = st.l;
     l.plucker = NULL;
-    CHECK_FAILS_WITH(gv_restore_net_init(&net, &st.model, &l, 1), "Plücker field");
+    CHECK_FAILS_WITH(gv_restore_net_init(&net, &st.r.net, &l, 1), "Plücker field");
     gv_restore_net_free(&net);
     setup_free(&st);
 }

@@ -22,9 +22,9 @@ static inline int rf_make_clip(gv_clip *clip, const char *scene, const char *spl
 {
     gv_clip_info info;
     memset(&info, 0, sizeof info);
-    snprintf(info.scene, sizeof info.scene, "%s", scene);
-    snprintf(info.split, sizeof info.split, "%s", split);
-    info.n = n, info.anchor_gap = 1, info.iters = 100, info.width = w, info.height = h;
+    snprintf(info.id.scene, sizeof info.id.scene, "%s", scene);
+    snprintf(info.id.split, sizeof info.id.split, "%s", split);
+    info.id.n = n, info.anchor_gap = 1, info.iters = 100, info.width = w, info.height = h;
     info.sampling = GV_SAMPLING_UNIFORM, info.seed = seed;
     int fr[5] = {0, 1, n / 2, n - 1, n};
     memcpy(info.frames, fr, sizeof fr);
@@ -78,27 +78,27 @@ static inline int rf_make_dataset(const char *dir, const rf_clip_spec *specs, in
         rc = rf_make_clip(&clip, specs[i].scene, specs[i].split, specs[i].n, w, h, noise, 100 + (uint64_t)i);
         if (rc) break;
         gv_clip_file_name(entry.file, sizeof entry.file, specs[i].scene, specs[i].n, i);
-        snprintf(entry.scene, sizeof entry.scene, "%s", specs[i].scene);
-        snprintf(entry.split, sizeof entry.split, "%s", specs[i].split);
-        entry.n = specs[i].n;
+        snprintf(entry.id.scene, sizeof entry.id.scene, "%s", specs[i].scene);
+        snprintf(entry.id.split, sizeof entry.id.split, "%s", specs[i].split);
+        entry.id.n = specs[i].n;
         memcpy(entry.frames, clip.info.frames, sizeof entry.frames);
         snprintf(path, sizeof path, "%s/%s", dir, entry.file);
         rc = gv_clip_write(path, &clip);
         gv_clip_free(&clip);
-        gv_manifest_run run = {{0}, {0}, specs[i].n, 1, 1.0};
-        snprintf(run.scene, sizeof run.scene, "%s", specs[i].scene);
-        snprintf(run.split, sizeof run.split, "%s", specs[i].split);
+        gv_manifest_run run = {{"", "", specs[i].n}, 1, 1.0};
+        snprintf(run.id.scene, sizeof run.id.scene, "%s", specs[i].scene);
+        snprintf(run.id.split, sizeof run.id.split, "%s", specs[i].split);
         /* one run per (scene, n) holding its clips: gather them */
-        if (rc == 0 && gv_manifest_find_run(&m, run.scene, run.n) < 0) {
+        if (rc == 0 && gv_manifest_find_run(&m, run.id.scene, run.id.n) < 0) {
             gv_manifest_clip group[16];
             int g = 0;
             for (int j = 0; j < count && g < 16; j++) {
-                if (strcmp(specs[j].scene, run.scene) || specs[j].n != run.n) continue;
+                if (strcmp(specs[j].scene, run.id.scene) || specs[j].n != run.id.n) continue;
                 memset(&group[g], 0, sizeof group[g]);
                 gv_clip_file_name(group[g].file, sizeof group[g].file, specs[j].scene, specs[j].n, j);
-                snprintf(group[g].scene, sizeof group[g].scene, "%s", specs[j].scene);
-                snprintf(group[g].split, sizeof group[g].split, "%s", specs[j].split);
-                group[g].n = specs[j].n;
+                snprintf(group[g].id.scene, sizeof group[g].id.scene, "%s", specs[j].scene);
+                snprintf(group[g].id.split, sizeof group[g].id.split, "%s", specs[j].split);
+                group[g].id.n = specs[j].n;
                 int fr[5] = {0, 1, specs[j].n / 2, specs[j].n - 1, specs[j].n};
                 memcpy(group[g].frames, fr, sizeof fr);
                 g++;

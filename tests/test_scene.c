@@ -1,5 +1,5 @@
 /* The scene API: the split, the extent, downscaling (intrinsics and images), write/load round
- * trips through both descriptions, the shared scenes, and bad folders. */
+ * trips through both descriptions, and bad folders (the shared scenes: test_shared_scenes.c). */
 #include "check.h"
 #include "gaussvid/colmap.h"
 #include "gaussvid/core.h"
@@ -8,20 +8,13 @@
 
 static const char *tmp;
 
-/* A CHECK that ends the test function when it fails (what follows would index nothing). */
-#define REQUIRE(cond)                                                                   \
-    do {                                                                                \
-        if (cond) check_passed++;                                                       \
-        else { check_failed++; fprintf(stderr, "%s:%d: REQUIRE failed: %s (%s)\n", __FILE__, \
-                                       __LINE__, #cond, gv_last_error()); return; }     \
-    } while (0)
-
 static void test_split(void)
 {
     int train[160], held[160], nt, nh;
     CHECK(gv_scene_split(10, 3, train, &nt, held, &nh) == 0);
     const int t3[4] = {0, 3, 6, 9}, h3[6] = {1, 2, 4, 5, 7, 8};
     CHECK(nt == 4 && nh == 6 && !memcmp(train, t3, sizeof t3) && !memcmp(held, h3, sizeof h3));
+    CHECK(gv_scene_is_train(0, 3) && gv_scene_is_train(9, 3) && !gv_scene_is_train(4, 3) && gv_scene_is_train(7, 1));
     CHECK(gv_scene_split(10, 1, train, &nt, held, &nh) == 0 && nt == 10 && nh == 0);
     CHECK(gv_scene_split(10, 9, train, &nt, held, &nh) == 0 && nt == 2 && train[1] == 9 && nh == 8);
     CHECK(gv_scene_split(160, 8, train, &nt, held, &nh) == 0 && nt == 20 && nh == 140);
@@ -299,46 +292,6 @@ static void test_bad_scenes(void)
     free(written.cameras);
 }
 
-/* The shared scenes: both descriptions load and describe the same cameras. */
-static void test_shared_scenes(void)
-{
-    const char *root = check_shared_scenes();
-    if (!root) return;
-    static const char *names[2] = {"courtyard", "livingroom"};
-    for (int n = 0; n < 2; n++) {
-        char dir[4200];
-        snprintf(dir, sizeof dir, "%s/%s", root, names[n]);
-        gv_scene colmap, json;
-        gv_scene_options prefer = {.downscale = 1, .prefer_transforms = 1};
-        double start = gv_now();
-        REQUIRE(gv_scene_load(dir, NULL, &colmap) == 0);
-        REQUIRE(gv_scene_load(dir, &prefer, &json) == 0);
-        printf("%s: both descriptions loaded in %.2f s\n", names[n], gv_now() - start);
-        CHECK(colmap.source == GV_SCENE_FROM_COLMAP_TEXT && json.source == GV_SCENE_FROM_TRANSFORMS);
-        CHECK(colmap.n_frames == 160 && json.n_frames == 160);
-        CHECK(colmap.n_points == 12000 && json.n_points == 12000);
-        double worst = 0;
-        for (int i = 0; i < colmap.n_frames && i < json.n_frames; i++) {
-            const gv_camera *a = &colmap.cameras[i], *b = &json.cameras[i];
-            CHECK(!strcmp(a->name, b->name) && a->width == 256 && b->height == 144);
-            for (int k = 0; k < 9; k++) worst = fmax(worst, fabs(a->R[k] - b->R[k]));
-            for (int k = 0; k < 3; k++) worst = fmax(worst, fabs(a->t[k] - b->t[k]));
-            worst = fmax(worst, fabs(a->fx - b->fx) + fabs(a->fy - b->fy) + fabs(a->cx - b->cx) + fabs(a->cy - b->cy));
-        }
-        printf("%s: COLMAP vs transforms.json cameras: max difference %.3g\n", names[n], worst);
-        CHECK(worst < 1e-5);
-        CHECK(json.n_points == colmap.n_points &&
-              !memcmp(json.points, colmap.points, 3 * sizeof(float) * (size_t)json.n_points));
-        CHECK(!strcmp(colmap.cameras[0].name, "frame_00000.png"));
-        gv_image img;
-        CHECK(gv_scene_load_image(&json, 159, &img) == 0 && img.width == 256 && img.height == 144);
-        gv_image_free(&img);
-        printf("%s: extent %.4f\n", names[n], gv_scene_extent(&colmap, NULL, 0));
-        gv_scene_free(&colmap);
-        gv_scene_free(&json);
-    }
-}
-
 int main(void)
 {
     tmp = check_tmp_dir();
@@ -348,6 +301,5 @@ int main(void)
     test_downscale();
     test_alpha();
     test_bad_scenes();
-    test_shared_scenes();
     return check_summary();
 }

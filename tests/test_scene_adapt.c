@@ -1,6 +1,6 @@
 /* Per-scene adaptation, the training side (scene_adapt.h): which internal clips are held
  * back; scene checkpoints holding the adapters alone, loaded over their base by
- * gv_checkpoint_load (found as written or beside the scene checkpoint, checked by checksum),
+ * gv_restorer_load (found as written or beside the scene checkpoint, checked by checksum),
  * with their record; the bare adapter files of the best step. Tiny preset, random weights. */
 #include "check.h"
 #include "model_testutil.h"
@@ -61,7 +61,7 @@ static double max_diff(const gv_dit *a, const gv_dit *b, int adapters)
 
 static void test_scene_checkpoint(const char *tmp)
 {
-    gv_dit base, tuned, loaded;
+    gv_dit base, tuned;
     CHECK(mt_model(&base, NULL, 3) == 0 && mt_model(&tuned, NULL, 3) == 0);
     mt_randomize(&base, MT_ALL, 5);
     mt_randomize(&tuned, MT_ALL, 5);
@@ -75,6 +75,13 @@ static void test_scene_checkpoint(const char *tmp)
     gv_mkdirs(dir);
     snprintf(base_path, sizeof base_path, "%s/base.safetensors", dir);
     snprintf(scene_path, sizeof scene_path, "%s/scene.safetensors", dir);
+    /* the base names its VAE (gv_restorer_load loads it with the network) */
+    char vae_path[4400];
+    snprintf(vae_path, sizeof vae_path, "%s/vae.safetensors", dir);
+    gv_vae vae;
+    CHECK(gv_vae_init(&vae, &base.cfg, 0, 7) == 0 && gv_vae_save(&vae, &base.cfg, vae_path, NULL, NULL, 0) == 0);
+    gv_vae_free(&vae);
+    snprintf(st.vae, sizeof st.vae, "%s", vae_path);
     CHECK(gv_checkpoint_save(base_path, &base, &base.cfg, &st, 0) == 0);
     gv_scene_adaptation a;
     memset(&a, 0, sizeof a);
@@ -106,11 +113,12 @@ static void test_scene_checkpoint(const char *tmp)
     CHECK(gv_scene_checkpoint_is(scene_path) == 1 && gv_scene_checkpoint_is(base_path) == 0);
     CHECK_FAILS_WITH(gv_scene_checkpoint_read(base_path, &back), "not a scene checkpoint");
 
-    /* loaded as any checkpoint: the base's weights, the scene's adapters */
-    gv_model_config cfg;
-    CHECK(gv_checkpoint_load(scene_path, &loaded, NULL, &cfg) == 0);
-    CHECK(max_diff(&loaded, &base, 0) == 0 && max_diff(&loaded, &tuned, 1) == 0 && max_diff(&base, &tuned, 1) > 0);
-    gv_dit_free(&loaded);
+    /* loaded as any checkpoint: the base's weights, the scene's adapters, the base's VAE */
+    gv_restorer r;
+    CHECK(gv_restorer_load(scene_path, &r) == 0);
+    CHECK(max_diff(&r.net, &base, 0) == 0 && max_diff(&r.net, &tuned, 1) == 0 && max_diff(&base, &tuned, 1) > 0);
+    CHECK(!strcmp(r.state.kind, "scene") && !strcmp(r.vae_path, vae_path));
+    gv_restorer_free(&r);
 
     /* both moved elsewhere: the base is found beside the scene checkpoint */
     char moved[4200], cmd[9000];
@@ -118,14 +126,14 @@ static void test_scene_checkpoint(const char *tmp)
     snprintf(cmd, sizeof cmd, "mv '%s' '%s'", dir, moved);
     CHECK(system(cmd) == 0);
     snprintf(scene_path, sizeof scene_path, "%s/scene.safetensors", moved);
-    CHECK(gv_checkpoint_load(scene_path, &loaded, NULL, &cfg) == 0 && max_diff(&loaded, &tuned, 1) == 0);
-    gv_dit_free(&loaded);
+    CHECK(gv_restorer_load(scene_path, &r) == 0 && max_diff(&r.net, &tuned, 1) == 0);
+    gv_restorer_free(&r);
     /* another base under its name: refused by its checksum; no base at all: named */
     snprintf(base_path, sizeof base_path, "%s/base.safetensors", moved);
     CHECK(gv_checkpoint_save(base_path, &tuned, &tuned.cfg, &st, 0) == 0);
-    CHECK_FAILS_WITH(gv_checkpoint_load(scene_path, &loaded, NULL, &cfg), "is not the base its adapters were trained on");
+    CHECK_FAILS_WITH(gv_restorer_load(scene_path, &r), "is not the base its adapters were trained on");
     CHECK(remove(base_path) == 0);
-    CHECK_FAILS_WITH(gv_checkpoint_load(scene_path, &loaded, NULL, &cfg), "is not found");
+    CHECK_FAILS_WITH(gv_restorer_load(scene_path, &r), "is not found");
 
     /* the bare adapters of a best step */
     char best[4400];

@@ -262,7 +262,7 @@ static void test_masked_frames(void)
     CHECK(gv_model_config_preset(&small, "small") == 0 && gv_model_config_preset(&tiny, "tiny") == 0);
     gv_clip_info info;
     memset(&info, 0, sizeof info);
-    info.width = info.height = 32, info.n = 6;
+    info.width = info.height = 32, info.id.n = 6;
     info.no_target[1] = info.no_target[3] = 1;
     gv_vae vae;
     memset(&vae, 0, sizeof vae);

@@ -470,23 +470,21 @@ static void test_checkpoint_load(void)
 {
     char ft[4200], moved_dir[4200], moved[4300], moved_vae[4300], bad[4200];
     path_of(ft, sizeof ft, "ft.safetensors");
-    gv_dit m;
-    gv_vae vae;
-    gv_model_config cfg;
-    CHECK(gv_checkpoint_load(ft, &m, &vae, &cfg) == 0);
-    CHECK(m.mode == GV_DIT_FROZEN && cfg.vae.has_latent_stats && vae.has_stats);
+    gv_restorer r;
+    CHECK(gv_restorer_load(ft, &r) == 0);
+    CHECK(r.net.mode == GV_DIT_FROZEN && r.cfg.vae.has_latent_stats && r.vae.has_stats && !strcmp(r.vae_path, vae_path));
+    CHECK(!strcmp(r.state.kind, "finetune"));
     int64_t n = 0;
     float *lb = tensor_of(ft, "blocks.0.self_attn.q.lora_B.weight", &n);
-    gv_param *p = gv_params_find(&m.params, "blocks.0.self_attn.q.lora_B.weight");
+    gv_param *p = gv_params_find(&r.net.params, "blocks.0.self_attn.q.lora_B.weight");
     CHECK(lb && p && p->t.numel == n && !memcmp(p->t.data, lb, (size_t)n * 4));
     free(lb);
     gv_vae orig;
     gv_model_config c0;
     CHECK(gv_model_config_preset(&c0, "tiny") == 0 && gv_train_load_vae(vae_path, &c0, &orig) == 0);
-    CHECK(gv_vae_checksum(&orig) == gv_vae_checksum(&vae));
+    CHECK(gv_vae_checksum(&orig) == gv_vae_checksum(&r.vae));
     gv_vae_free(&orig);
-    gv_dit_free(&m);
-    gv_vae_free(&vae);
+    gv_restorer_free(&r);
     /* moved with its VAE into another folder: the VAE is found beside the checkpoint */
     path_of(moved_dir, sizeof moved_dir, "moved");
     CHECK(gv_mkdirs(moved_dir) == 0);
@@ -497,20 +495,16 @@ static void test_checkpoint_load(void)
     char hidden[4300];
     snprintf(hidden, sizeof hidden, "%s.hidden", vae_path);
     CHECK(rename(vae_path, hidden) == 0);
-    CHECK(gv_checkpoint_load(moved, &m, &vae, &cfg) == 0);
-    gv_dit_free(&m);
-    gv_vae_free(&vae);
-    CHECK_FAILS_WITH(gv_checkpoint_load(ft, &m, &vae, &cfg), "is not found");
+    CHECK(gv_restorer_load(moved, &r) == 0 && !strcmp(r.vae_path, moved_vae));
+    gv_restorer_free(&r);
+    CHECK_FAILS_WITH(gv_restorer_load(ft, &r), "is not found");
     /* another VAE under that name */
     gv_model_config c;
     gv_vae other;
     CHECK(rf_tiny(&c, &other, NULL, 6) == 0 && gv_vae_save(&other, &c, vae_path, NULL, NULL, 0) == 0);
     gv_vae_free(&other);
-    CHECK_FAILS_WITH(gv_checkpoint_load(ft, &m, &vae, &cfg), "not the one it was trained with");
+    CHECK_FAILS_WITH(gv_restorer_load(ft, &r), "not the one it was trained with");
     CHECK(rename(hidden, vae_path) == 0);
-    /* without a VAE pointer only the network loads */
-    CHECK(gv_checkpoint_load(ft, &m, NULL, &cfg) == 0);
-    gv_dit_free(&m);
     /* a truncated file, a file that is no checkpoint */
     char *data;
     size_t size;
@@ -520,19 +514,19 @@ static void test_checkpoint_load(void)
     fwrite(data, 1, size / 2, f);
     fclose(f);
     free(data);
-    CHECK_FAILS_WITH(gv_checkpoint_load(bad, &m, &vae, &cfg), "truncated.safetensors");
-    CHECK_FAILS_WITH(gv_checkpoint_load(vae_path, &m, &vae, &cfg), "not a gaussvid checkpoint");
+    CHECK_FAILS_WITH(gv_restorer_load(bad, &r), "truncated.safetensors");
+    CHECK_FAILS_WITH(gv_restorer_load(vae_path, &r), "not a gaussvid checkpoint");
     path_of(bad, sizeof bad, "missing.safetensors");
-    CHECK_FAILS_WITH(gv_checkpoint_load(bad, &m, &vae, &cfg), "missing.safetensors");
+    CHECK_FAILS_WITH(gv_restorer_load(bad, &r), "missing.safetensors");
     /* a base of another network */
     gv_model_config wide;
     CHECK(gv_model_config_preset(&wide, "tiny") == 0);
     wide.dit.dim = 48, wide.camera.proj_hidden = 48;
     CHECK(gv_model_config_validate(&wide, "test") == 0);
-    CHECK(gv_dit_init(&m, &wide, 1) == 0);
+    CHECK(gv_dit_init(&r.net, &wide, 1) == 0);
     int cam;
-    CHECK_FAILS_WITH(gv_checkpoint_load_base(ft, &m, 1, &cam), "another network");
-    gv_dit_free(&m);
+    CHECK_FAILS_WITH(gv_checkpoint_load_base(ft, &r.net, 1, &cam), "another network");
+    gv_dit_free(&r.net);
 }
 
 int main(void)

@@ -262,6 +262,8 @@ static void test_bad_files(void)
         {"no_frames.json", "{" TOP "}", "no_frames.json: missing key frames"},
         {"array.json", "[1, 2]", "array.json: top level is not a JSON object"},
         {"broken.json", "{" TOP ",\n\n \"frames\": [" FRAME_A "", "broken.json: line 3"},
+        /* found by fuzz/: a quote and a colon at the very start read before the text */
+        {"start.json", "\":Na", "start.json: line 1: invalid JSON"},
         {"absolute.json", "{" TOP ", \"frames\": [{\"file_path\": \"/etc/a.png\", "
          "\"transform_matrix\": [[1,0,0,0],[0,1,0,0],[0,0,1,0]]}]}",
          "absolute.json: frames[0].file_path /etc/a.png must be relative"},

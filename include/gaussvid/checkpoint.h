@@ -36,12 +36,20 @@ typedef struct {
 } gv_train_state;
 
 /* ---- for inference ------------------------------------------------------------------------ */
-/* Loads a checkpoint: its config into cfg, the network into m (built by gv_dit_init from that
- * config, every tensor read from the file, frozen; a base's LoRA adapters, absent from the
- * file, stay at their zero start) and, when vae is not NULL, the VAE: its tensors in the file,
- * or else the file named by metadata "vae" (as written, else relative to the checkpoint's
- * folder), checked against "vae_checksum" (gv_checkpoint_vae_path). */
-int gv_checkpoint_load(const char *path, gv_dit *m, gv_vae *vae, gv_model_config *cfg);
+/* A trained restorer as one open and one parse of its checkpoint give it. */
+typedef struct {
+    gv_model_config cfg;
+    gv_train_state state;
+    gv_dit net;                    /* frozen */
+    gv_vae vae;
+    char vae_path[4200];           /* the VAE file metadata "vae" names, else the checkpoint */
+} gv_restorer;
+/* Loads a checkpoint: its config and training state, the network (built by gv_dit_init from
+ * that config, every tensor read from the file; a base's LoRA adapters, absent from the file,
+ * stay at their zero start) and the VAE: its tensors in the file, or else the file named by
+ * metadata "vae" (gv_checkpoint_vae_path), checked against "vae_checksum". */
+int gv_restorer_load(const char *path, gv_restorer *r);
+void gv_restorer_free(gv_restorer *r);
 /* Reads only the config and the training state of a checkpoint. */
 int gv_checkpoint_read_info(const char *path, gv_model_config *cfg, gv_train_state *state);
 

@@ -65,27 +65,48 @@ int gv_mkdirs(const char *path);
 int gv_path_join(char *out, size_t size, const char *a, const char *b);
 
 /* A file written under a temporary name in the same folder and renamed on commit, so that
- * a reader never sees it half-written. */
+ * a reader never sees it half-written (src/core/atomic_file.c). A symbolic link is followed:
+ * the temporary goes beside the file it names, which is replaced and the link kept. An
+ * existing device, FIFO or socket is written into directly (renaming over it would replace
+ * the node); an existing directory is refused. */
 typedef struct {
     FILE *f;
-    char path[4096];
-    char tmp_path[4096 + 32];
+    int direct;                 /* writing straight into a device or FIFO: no rename */
+    char path[4096];            /* as the caller named it, for messages */
+    char target[4096];          /* path with its symbolic links followed */
+    char tmp_path[4096 + 48];
 } gv_atomic_file;
 int gv_atomic_open(gv_atomic_file *af, const char *path);
-/* Flushes, closes and renames into place; on any write error removes the temporary. */
+/* Follows the symbolic links from path to the name they finally lead to, which need not
+ * exist yet (a dangling link names the file to create). */
+int gv_path_follow_links(const char *path, char *out, size_t size);
+/* Flushes, fsyncs, closes and renames into place, then fsyncs the folder; on any write
+ * error removes the temporary and leaves the previous file as it was. */
 int gv_atomic_commit(gv_atomic_file *af);
 void gv_atomic_abort(gv_atomic_file *af);
+/* Removes from dir the temporaries (NAME.tmp.PID or NAME.tmp.PID.K) that a killed writer left,
+ * those whose NAME starts with prefix (NULL: all); a live process's are kept. Returns how
+ * many were removed. Long jobs call it on their output folders when they start. */
+int gv_atomic_sweep(const char *dir, const char *prefix);
 /* Writes text and a final newline to path atomically (JSON documents, manifests). */
 int gv_write_text_atomic(const char *path, const char *text);
 
 /* ---- Command-line flags -------------------------------------------------------------
  * Every subcommand declares its flags in a table; the parser handles --help, --quiet and
  * --threads for all of them, so flags look and behave the same everywhere. */
-typedef enum { GV_FLAG_BOOL, GV_FLAG_INT, GV_FLAG_DOUBLE, GV_FLAG_STRING } gv_flag_type;
+typedef enum { GV_FLAG_BOOL, GV_FLAG_INT, GV_FLAG_DOUBLE, GV_FLAG_STRING, GV_FLAG_LIST } gv_flag_type;
+/* The values of a list flag: "--name A B ..." takes every value up to the next option, and
+ * "--name=A" one; the flag may be repeated and each value may be a comma-separated list. The
+ * items point into argv (split in place at the commas). */
+#define GV_FLAG_LIST_MAX 1024
+typedef struct {
+    const char *items[GV_FLAG_LIST_MAX];
+    int n;
+} gv_flag_list;
 typedef struct {
     const char *name;   /* without the leading "--" */
     gv_flag_type type;
-    void *value;        /* int*, int*, double*, const char** */
+    void *value;        /* int*, int*, double*, const char**, gv_flag_list* */
     const char *meta;   /* value placeholder for the help, e.g. "DIR" */
     const char *help;
     int required;

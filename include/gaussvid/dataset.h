@@ -25,6 +25,14 @@
 #define GV_SCENE_NAME_MAX 128        /* scene names are folder names; they name files */
 #define GV_MAX_INTERVALS 256
 
+/* What one run of the builder is, and each clip, manifest entry and record of it carries:
+ * a scene (its folder name), the scene's split and the interval n of the sparse views. */
+typedef struct {
+    char scene[GV_SCENE_NAME_MAX];
+    char split[8];                   /* "train" or "eval" */
+    int n;
+} gv_run_id;
+
 /* ---- sampling.c: which frames make a clip ----------------------------------------------
  * An interval n makes frames 0, n, 2n, ... training views. The anchors of a clip are the
  * training views s and e = s + gap, gap = anchor_gap * n (anchor_gap 1: consecutive training
@@ -70,9 +78,8 @@ int gv_parse_intervals(const char *text, int *intervals, int max, int *count);
  * list), frame_names (JSON list), iters, sampling, seed, width, height; and, only when they
  * are not 0, offset and target_mask (JSON list of 5: 1 ground truth, 0 none). */
 typedef struct {
-    char scene[GV_SCENE_NAME_MAX];
-    char split[8];                   /* "train" or "eval" */
-    int n, anchor_gap, iters;
+    gv_run_id id;
+    int anchor_gap, iters;
     int width, height;
     gv_clip_sampling sampling;
     uint64_t seed;                   /* the build's --seed */
@@ -126,18 +133,14 @@ typedef struct {
 } gv_dataset_params;
 
 typedef struct {
-    char scene[GV_SCENE_NAME_MAX];
-    char split[8];
-    int n;
+    gv_run_id id;
     int n_clips;
     double seconds;                  /* wall time of the run */
 } gv_manifest_run;
 
 typedef struct {
     char file[GV_SCENE_NAME_MAX + 64]; /* relative to the dataset folder */
-    char scene[GV_SCENE_NAME_MAX];
-    char split[8];
-    int n;
+    gv_run_id id;
     int frames[GV_CLIP_FRAMES];
 } gv_manifest_clip;
 
@@ -171,9 +174,8 @@ int gv_run_file_name(char *out, size_t size, const char *scene, int n);
  * its ground truth (as the 3DGS evaluation computes them), the mean over the training views,
  * and its timings. */
 typedef struct {
-    char scene[GV_SCENE_NAME_MAX];
-    char split[8];
-    int n, iters, n_train;
+    gv_run_id id;
+    int iters, n_train;
     int n_held_out;
     int *held_out;                   /* frame indices */
     double *psnr, *ssim;             /* per held-out frame */

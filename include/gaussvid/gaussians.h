@@ -21,6 +21,10 @@ int gv_sh_coefficient_count(int degree);
 int gv_gaussians_alloc(gv_gaussians *g, int n, int sh_degree);
 /* Grows the capacity to at least `capacity`, keeping the contents. */
 int gv_gaussians_reserve(gv_gaussians *g, int capacity);
+/* Copies every attribute of row src to row dst (rows of the same set, dst != src). */
+void gv_gaussians_copy_row(gv_gaussians *g, int dst, int src);
+/* Zeroes every attribute of rows [from, to). */
+void gv_gaussians_zero_rows(gv_gaussians *g, int from, int to);
 /* Frees the arrays and zeroes the struct. */
 void gv_gaussians_free(gv_gaussians *g);
 /* Fails naming `what` and the first Gaussian with a NaN or infinite parameter. */

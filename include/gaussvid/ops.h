@@ -71,6 +71,9 @@ gv_tensor *gv_linear(gv_graph *g, gv_tensor *x, gv_tensor *w, gv_tensor *bias);
 /* C [M, N] = A [M, K] B [K, N], row-major with leading dimensions lda, ldb, ldc, outside any
  * graph: the engine's product (CBLAS) for code that keeps its own buffers (LPIPS). */
 void gv_gemm(int M, int N, int K, const float *A, int lda, const float *B, int ldb, float *C, int ldc);
+/* The same with B transposed: C [M, N] = A [M, K] B^T, B [N, K] (a PyTorch Linear's weight). */
+void gv_gemm_nt(int M, int N, int K, const float *A, int lda, const float *B, int ldb, float *C,
+                int ldc);
 
 /* LoRA layer (nn/lora.c): x W^T + bias + scale (x A^T) B^T with A [r, in], B [out, r]; W is
  * usually frozen and B zero-initialised (DESIGN.md 6.7). Made of linear ops. */

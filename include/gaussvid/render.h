@@ -42,6 +42,10 @@ int gv_splat_render_forward(gv_splat_renderer *r, const gv_gaussians *g,
  * NDC units, |(dL/dx * W/2, dL/dy * H/2)| (reference doc section 14.1). */
 int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
                              const float *d_image, gv_gaussians *grad, float *densify_grad);
+/* Expected depth (view z, 0 where nothing blends) and accumulated opacity 1 - T_final of
+ * the last forward, per pixel (width * height floats each; either may be NULL): the pass
+ * of gv_splat_rasterize_depth (src/splat/rasterize_depth.c). Fails before any forward. */
+int gv_splat_render_depth(const gv_splat_renderer *r, float *depth, float *opacity);
 void gv_splat_renderer_free(gv_splat_renderer *r);
 
 #endif

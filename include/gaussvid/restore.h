@@ -27,6 +27,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "gaussvid/checkpoint.h"
 #include "gaussvid/condition.h"
 #include "gaussvid/dataset.h"
 #include "gaussvid/dit.h"
@@ -112,19 +113,18 @@ typedef struct {
     const char *out_dir;               /* restore: PNGs (and clips) go here; NULL: none */
     int save_clips;                    /* restore: also <out>/<clip>.safetensors */
     int use_cache;                     /* dataset runs: the latent cache (1) or encode each clip */
-    const char *vae_path;              /* for the cache's messages */
     /* called with each restored clip [5, H, W, 3] (may be NULL), e.g. gv_eval_add_restored;
      * what it writes into note (size bytes, empty at the call) is shown on the progress bar */
     int (*each)(void *ctx, const gv_clip *clip, const uint8_t *restored, char *note, size_t size);
     void *each_ctx;
-    int keep_renders;                  /* the restored clip is the input clip, bit for bit: neither
-                                          the network nor the VAE is used (they may be NULL), no
-                                          latent cache is read (a scene checkpoint's closed gate) */
+    int keep_renders;                  /* the restored clip is the input clip, bit for bit: the
+                                          restorer is not used (it may be NULL), no latent cache
+                                          is read (a scene checkpoint's closed gate) */
 } gv_restore_options;
 
 /* Restores clip files (paths) or every clip of a dataset folder (dataset_dir, split), with a
  * progress bar; each restored clip is written (when out_dir) and handed to o->each. */
-int gv_restore_files(gv_dit *m, gv_vae *vae, const char *const *paths, int n_paths, const gv_restore_options *o);
-int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_restore_options *o);
+int gv_restore_files(gv_restorer *r, const char *const *paths, int n_paths, const gv_restore_options *o);
+int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore_options *o);
 
 #endif

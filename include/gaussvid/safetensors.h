@@ -51,6 +51,10 @@ typedef struct {
     const uint8_t *map;
     int *by_name;           /* tensor indices sorted by name, for lookup */
     char *strings;          /* names, keys and values */
+    /* Readers of the other release formats (a sharded index, a PyTorch zip: weight_files.h)
+     * present their tensors through this struct; gv_st_close hands what they own back. */
+    void *owner;
+    void (*release)(void *owner);
 } gv_st_file;
 
 /* ---- dtypes ------------------------------------------------------------------------- */

@@ -53,6 +53,8 @@ void gv_camera_rescale(gv_camera *cam, int width, int height);
  * (the gv_image_downscale rule, as 3DGS loadCam). */
 int gv_downscaled_size(int size, int k);
 
+/* The sparse split's rule: frame i is a training view at interval n when i is a multiple of n. */
+int gv_scene_is_train(int frame, int interval);
 /* Sparse split for interval n: training frames 0, n, 2n, ...; every other frame held out.
  * Fills the arrays (each n_frames long) and counts; fails when n < 1 or when fewer than two
  * training frames result. */

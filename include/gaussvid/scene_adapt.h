@@ -8,7 +8,7 @@
  * with the base checkpoint they apply to (path and checksum) and the gate: whether the scene's
  * held-back pairs, restored with them, came out better than their renders.
  *
- * gv_checkpoint_load (checkpoint.h) loads a scene checkpoint as any other: the base first
+ * gv_restorer_load (checkpoint.h) loads a scene checkpoint as any other: the base first
  * (found as written, else beside the scene checkpoint), then the adapters over it. Whether to
  * restore at all is the gate's decision (gv_scene_checkpoint_read). */
 #ifndef GAUSSVID_SCENE_ADAPT_H
@@ -48,9 +48,9 @@ int gv_scene_checkpoint_save(const char *path, const gv_dit *m, const gv_model_c
 int gv_scene_checkpoint_read(const char *path, gv_scene_adaptation *a);
 /* 1 when path is a gaussvid checkpoint of kind "scene" (0 for other kinds; -1 unreadable). */
 int gv_scene_checkpoint_is(const char *path);
-/* Loads the base it names into m (and vae), checked by checksum, then its adapters over it;
- * cfg receives the config. */
-int gv_scene_checkpoint_load(const char *path, gv_dit *m, gv_vae *vae, gv_model_config *cfg);
+/* Loads the base it names into r with gv_restorer_load (network, VAE and its vae_path), checked
+ * by checksum, then its adapters over it; r->cfg and r->state are the scene checkpoint's. */
+int gv_scene_checkpoint_load(const char *path, gv_restorer *r);
 /* The base file a scene checkpoint names: as written, else the same relative path or file name
  * beside the scene checkpoint; its checksum must match. */
 int gv_scene_checkpoint_base(const char *path, const gv_train_state *state, const gv_scene_adaptation *a, char *out,

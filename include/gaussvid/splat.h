@@ -137,6 +137,17 @@ void gv_splat_rasterize_backward(gv_splat_tiles *t, int width, int height, const
                                  const float *d_image, float *d_means2d, float *d_conics,
                                  float *d_colors, float *d_opacities);
 
+/* ---- rasterize_depth.c -----------------------------------------------------------------
+ * Per pixel, over the tiles of a forward with the same 2D data: the expected view-space
+ * depth sum_i w_i z_i / sum_i w_i (w_i = alpha_i T_i, the colour's weights; 0 where nothing
+ * blends) into depth, and the accumulated opacity 1 - T_final into opacity (either may be
+ * NULL). The same Gaussians blend as in gv_splat_rasterize_forward, and 1 - opacity is its
+ * final_T exactly. Parallel over tiles; no backward. */
+void gv_splat_rasterize_depth(const gv_splat_tiles *t, int width, int height,
+                              const float *means2d, const float *conics,
+                              const float *opacities, const float *depths, float *depth,
+                              float *opacity);
+
 /* ---- reference.c -----------------------------------------------------------------------
  * Plain double-precision implementation of the same formulas, written independently of the
  * kernels above, for the tests: no tiles, every pixel loops over every Gaussian. The

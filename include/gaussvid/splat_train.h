@@ -180,8 +180,9 @@ typedef struct {
     int opacity_reset_interval; /* 3000 (while < densify_until) */
 } gv_splat_schedule;
 
-/* How the model grows: MCMC with a budget that follows the training pixels (the default),
- * or the reference's clone / split / prune with opacity resets (docs/SPLAT_TRAINING.md). */
+/* How the model grows: the reference's clone / split / prune with opacity resets (the
+ * default), or MCMC with a budget that follows the training pixels: 2.6x faster, better on
+ * some scenes and worse on others (docs/SPLAT_TRAINING.md, "Density control"). */
 typedef enum { GV_DENSIFY_MCMC, GV_DENSIFY_REFERENCE } gv_splat_densify_mode;
 /* "mcmc" or "reference"; -1 for anything else. */
 int gv_splat_densify_mode_parse(const char *name);

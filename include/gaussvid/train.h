@@ -211,5 +211,11 @@ int gv_train_load_data(const char *clips_dir, const char *vae_path, const char *
                        gv_latent_set *set, gv_train_state *meta);
 /* The "eval" clips of a dataset folder encoded the same way, to validate a run on. */
 int gv_train_load_val(const char *clips_dir, const char *vae_path, gv_model_config *cfg, gv_latent_set *set);
+/* The network a run trains, and meta's kind and base: pretraining builds cfg's network without
+ * LoRA adapters (the base's file keeps cfg's rank for fine-tuning), every tensor trained;
+ * fine-tuning loads the base when there is one (its camera encoder too unless fresh_camera)
+ * and trains LoRA and the camera encoder. */
+int gv_train_model(const gv_model_config *cfg, gv_objective objective, const char *base, int fresh_camera,
+                   uint64_t seed, gv_dit *m, gv_train_state *meta);
 
 #endif

@@ -90,6 +90,10 @@ typedef struct {
 } gv_weight_counts;
 /* Parameter and tensor counts per module, in total and trainable in fine-tuning. */
 void gv_weight_list_count(const gv_weight_list *l, gv_weight_counts *out);
+/* Fails (naming path) when the tensors of `parts` of the network c describes cannot fit in
+ * `bytes` of tensor data (2 bytes per parameter at least): checked before building a network
+ * whose config came from the file (src/model/weight_budget.c). */
+int gv_weights_fit(const gv_model_config *c, unsigned parts, uint64_t bytes, const char *path);
 
 /* ---- checking files ------------------------------------------------------------------- */
 typedef struct {

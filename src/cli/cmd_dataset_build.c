@@ -1,53 +1,10 @@
 /* gaussvid dataset build --scenes DIR... --out DIR: artifact simulation and clip sampling for
  * every scene and interval (paper section 3.2; docs/FORMATS-DATASET.md). Resumable. */
 #include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
 
 #include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/dataset.h"
-
-#define MAX_SCENES 1024
-
-/* Splits a comma-separated list in place into items (empty items are skipped). */
-static int split_list(char *text, const char **items, int *count, int max)
-{
-    for (char *item = strtok(text, ","); item; item = strtok(NULL, ",")) {
-        if (*count == max) return -1;
-        items[(*count)++] = item;
-    }
-    return 0;
-}
-
-/* The flags parser keeps one value per flag, so every "--scenes X" (or --scenes=X) is taken
- * out of argv here, before parsing; each X may be a comma-separated list. */
-static int take_scenes(int *argc, char **argv, char **scene_text, int *n_text)
-{
-    int kept = 1;
-    for (int i = 1; i < *argc; i++) {
-        const char *value = NULL;
-        if (!strcmp(argv[i], "--scenes")) {
-            if (i + 1 >= *argc) {
-                fprintf(stderr, "gaussvid dataset build: --scenes needs a value\n");
-                return -1;
-            }
-            value = argv[++i];
-        } else if (!strncmp(argv[i], "--scenes=", 9)) {
-            value = argv[i] + 9;
-        } else {
-            argv[kept++] = argv[i];
-            continue;
-        }
-        if (*n_text == MAX_SCENES) {
-            fprintf(stderr, "gaussvid dataset build: more than %d --scenes values\n", MAX_SCENES);
-            return -1;
-        }
-        scene_text[(*n_text)++] = (char *)value;
-    }
-    *argc = kept;
-    return 0;
-}
 
 static int usage(const char *message)
 {
@@ -57,26 +14,26 @@ static int usage(const char *message)
 
 int cmd_dataset_build(int argc, char **argv)
 {
-    const char *unused_scenes = NULL, *intervals_text = "6:26:2", *sampling = "uniform";
-    const char *eval_text = NULL, *out = NULL;
+    const char *intervals_text = "6:26:2", *sampling = "uniform", *out = NULL;
+    gv_flag_list scenes = {.n = 0}, eval = {.n = 0};
     gv_dataset_params p;
     gv_dataset_default_params(&p);
     int seed = 0, jobs = 1;
     const gv_flag flags[] = {
-        {"scenes", GV_FLAG_STRING, &unused_scenes, "DIR,...", "scene folders (required): a comma-separated list, the flag repeated, and/or folders after it", 0},
+        {"scenes", GV_FLAG_LIST, &scenes, "DIR...", "scene folders: the folders after it, comma-separated, the flag repeated", 1},
         {"out", GV_FLAG_STRING, &out, "DIR", "the dataset folder (created; an existing one is resumed)", 1},
         {"intervals", GV_FLAG_STRING, &intervals_text, "A:B:S", "intervals n: \"a:b:s\", \"a:b\", \"n\", comma-separated (default 6:26:2)", 0},
         {"iters", GV_FLAG_INT, &p.iters, "N", "3DGS iterations, the early stop (default 8000, the paper's)", 0},
         {"clips-per-run", GV_FLAG_INT, &p.clips_per_run, "K", "clips per (scene, n) (default 4)", 0},
         {"anchor-gap", GV_FLAG_INT, &p.anchor_gap, "G", "anchors G training views apart, G*n frames (default 1: consecutive)", 0},
         {"sampling", GV_FLAG_STRING, &sampling, "S", "intermediate frames: uniform (default), random or released", 0},
-        {"eval-scenes", GV_FLAG_STRING, &eval_text, "NAME,...", "scenes (folder names) of the eval split; the rest are train", 0},
+        {"eval-scenes", GV_FLAG_LIST, &eval, "NAME...", "scenes (folder names) of the eval split; the rest are train", 0},
         {"downscale", GV_FLAG_INT, &p.downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "random seed of training and clip sampling (default 0)", 0},
         {"jobs", GV_FLAG_INT, &jobs, "J", "runs side by side, one thread each (default 1: one run on every thread)", 0},
     };
     const gv_command_spec spec = {
-        "dataset build", "[DIR...]", "simulate sparse-view artifacts and sample clean-corrupted-clean clips",
+        "dataset build", NULL, "simulate sparse-view artifacts and sample clean-corrupted-clean clips",
         "For every scene and interval n: 3DGS trained on frames 0, n, 2n, ... and stopped at\n"
         "--iters renders every held-out frame (its PSNR/SSIM go to runs/<scene>_n<n>.json);\n"
         "K clips are sampled: two training views G*n apart as clean anchors, three held-out\n"
@@ -87,43 +44,21 @@ int cmd_dataset_build(int argc, char **argv)
         "--jobs J trains J runs at once, one thread each (each gives the clips of --threads 1);\n"
         "on shared cores this avoids the threads of one run waiting for one another.\n"
         "See docs/FORMATS-DATASET.md.",
-        flags, sizeof flags / sizeof flags[0], 0, MAX_SCENES};
-    char *scene_text[MAX_SCENES];
-    int n_text = 0;
-    if (take_scenes(&argc, argv, scene_text, &n_text) != 0) return 2;
-    char *positional[MAX_SCENES];
-    int n_positional = 0;
-    int parsed = gv_args_parse(&spec, argc, argv, positional, &n_positional);
+        flags, sizeof flags / sizeof flags[0], 0, 0};
+    int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
-    for (int i = 0; i < n_positional && n_text < MAX_SCENES; i++) scene_text[n_text++] = positional[i];
-
-    static const char *scenes[MAX_SCENES], *eval[MAX_SCENES];
-    int n_scenes = 0, n_eval = 0;
-    for (int i = 0; i < n_text; i++)
-        if (split_list(scene_text[i], scenes, &n_scenes, MAX_SCENES) != 0) return usage("too many scenes");
-    if (n_scenes == 0) return usage("--scenes is required");
-    char *eval_copy = eval_text ? strdup(eval_text) : NULL;
-    if (eval_copy && split_list(eval_copy, eval, &n_eval, MAX_SCENES) != 0) {
-        free(eval_copy);
-        return usage("too many eval scenes");
-    }
     int intervals[GV_MAX_INTERVALS], n_intervals;
     int bad = gv_parse_intervals(intervals_text, intervals, GV_MAX_INTERVALS, &n_intervals) != 0 ||
               gv_sampling_from_name(sampling, &p.sampling) != 0;
     if (!bad && seed < 0) bad = gv_fail("--seed %d: must be non-negative", seed) != 0;
     if (!bad && (jobs < 1 || jobs > 256)) bad = gv_fail("--jobs %d: must be in 1..256", jobs) != 0;
-    if (bad) {
-        free(eval_copy);
-        return usage(gv_last_error());
-    }
+    if (bad) return usage(gv_last_error());
     p.seed = (uint64_t)seed;
 
-    gv_dataset_build_options o = {scenes, n_scenes, intervals, n_intervals, eval, n_eval, p, out, NULL,
+    gv_dataset_build_options o = {scenes.items, scenes.n, intervals, n_intervals, eval.items, eval.n, p, out, NULL,
                                   jobs};
     gv_dataset_build_result r;
-    int rc = gv_dataset_build(&o, &r);
-    free(eval_copy);
-    if (rc != 0) return gv_report_failure();
+    if (gv_dataset_build(&o, &r) != 0) return gv_report_failure();
     printf("%s: %d runs (%d built, %d already there), %d clips written, %.1f s\n", out,
            r.runs_total, r.runs_built, r.runs_skipped, r.clips_written, r.seconds);
     return 0;

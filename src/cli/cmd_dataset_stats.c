@@ -19,7 +19,7 @@ static int for_each_run(const char *dir, void (*fn)(const gv_run_record *, void 
     for (int i = 0; i < m.n_runs && rc == 0; i++) {
         char file[GV_SCENE_NAME_MAX + 32], path[4096];
         gv_run_record rec;
-        rc = gv_run_file_name(file, sizeof file, m.runs[i].scene, m.runs[i].n) ||
+        rc = gv_run_file_name(file, sizeof file, m.runs[i].id.scene, m.runs[i].id.n) ||
              gv_path_join(path, sizeof path, dir, file) || gv_run_record_read(path, &rec);
         if (rc == 0) {
             fn(&rec, arg);
@@ -35,16 +35,16 @@ static void print_run(const gv_run_record *r, void *unused)
     (void)unused;
     char train[32] = "-";
     if (r->train_frames > 0) snprintf(train, sizeof train, "%.2f / %.4f", r->train_psnr, r->train_ssim);
-    printf("| %s | %s | %d | %d | %.2f / %.4f | %s | %d | %.0f |\n", r->scene, r->split, r->n,
+    printf("| %s | %s | %d | %d | %.2f / %.4f | %s | %d | %.0f |\n", r->id.scene, r->id.split, r->id.n,
            r->n_train, r->psnr_mean, r->ssim_mean, train, r->n_clips, r->seconds);
 }
 
 static void add_run_json(const gv_run_record *r, void *list)
 {
     cJSON *o = cJSON_CreateObject();
-    cJSON_AddStringToObject(o, "scene", r->scene);
-    cJSON_AddStringToObject(o, "split", r->split);
-    cJSON_AddNumberToObject(o, "n", r->n);
+    cJSON_AddStringToObject(o, "scene", r->id.scene);
+    cJSON_AddStringToObject(o, "split", r->id.split);
+    cJSON_AddNumberToObject(o, "n", r->id.n);
     cJSON_AddNumberToObject(o, "train_views", r->n_train);
     cJSON *b = cJSON_AddObjectToObject(o, "held_out");
     cJSON_AddNumberToObject(b, "psnr", r->psnr_mean);

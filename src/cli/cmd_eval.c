@@ -42,50 +42,31 @@ int cmd_eval(int argc, char **argv)
     gv_restore_options o;
     if (gv_restore_cli_options(&c, &o)) return gv_restore_cli_usage("eval", gv_last_error());
 
-    gv_dit m;
-    gv_vae vae;
-    gv_model_config cfg;
-    char vae_path[4200];
-    if (gv_restore_cli_load(c.ckpt, &m, &vae, &cfg, vae_path, sizeof vae_path)) return gv_report_failure();
-    o.vae_path = vae_path;
-    char gate_line[1024];
-    const char *gate;
-    if (gv_restore_cli_gate(c.ckpt, &o, gate_line, sizeof gate_line, &gate)) {
-        gv_dit_free(&m), gv_vae_free(&vae);
-        return gv_report_failure();
-    }
-    fputs(gate_line, stdout);
-    gv_lpips lpips;
-    int failed;
-    const gv_lpips *net = gv_restore_cli_lpips(&c, &lpips, &failed);
-    gv_eval_table table;
-    gv_eval_init(&table, net);
-    o.each = gv_eval_add_restored, o.each_ctx = &table;
-    int rc = failed ? -1 : gv_restore_dataset(&m, &vae, clips, &o);
+    gv_restore_session s;
+    int rc = gv_restore_cli_start(&c, &o, &s) ? -1 : gv_restore_dataset(&s.r, clips, &o);
+    gv_eval_table *table = &s.table;
     char text[256];
     gv_sampler_describe(&o.sampler, text, sizeof text);
     if (rc == 0) {
-        gv_eval_finish(&table);
-        printf("%s (%s split): %d clips, checkpoint %s, %s, %s composition\n\n", clips, c.split, table.mean.clips, c.ckpt,
+        gv_eval_finish(table);
+        printf("%s (%s split): %d clips, checkpoint %s, %s, %s composition\n\n", clips, c.split, table->mean.clips, c.ckpt,
                text, gv_compose_name(o.compose));
-        gv_eval_print_markdown(&table, stdout);
+        gv_eval_print_markdown(table, stdout);
     }
     if (rc == 0 && json) {
         const char *keys[6] = {"checkpoint", "sampler", "compose", "split", "clips_dir", "gate"};
-        const char *values[6] = {c.ckpt, text, gv_compose_name(o.compose), c.split, clips, gate};
-        rc = gv_eval_write_json(&table, json, keys, values, gate ? 6 : 5);
+        const char *values[6] = {c.ckpt, text, gv_compose_name(o.compose), c.split, clips, s.gate};
+        rc = gv_eval_write_json(table, json, keys, values, s.gate ? 6 : 5);
     }
     if (rc == 0 && identity) {
         /* restore.h: the identity sampler with residual composition reproduces the inputs */
-        int same = table.mean.psnr_rest == table.mean.psnr_base && table.mean.ssim_rest == table.mean.ssim_base;
-        for (int i = 0; i < table.n_rows; i++)
-            same = same && table.rows[i].psnr_rest == table.rows[i].psnr_base &&
-                   table.rows[i].ssim_rest == table.rows[i].ssim_base;
+        int same = table->mean.psnr_rest == table->mean.psnr_base && table->mean.ssim_rest == table->mean.ssim_base;
+        for (int i = 0; i < table->n_rows; i++)
+            same = same && table->rows[i].psnr_rest == table->rows[i].psnr_base &&
+                   table->rows[i].ssim_rest == table->rows[i].ssim_base;
         if (!same) rc = gv_fail("%s: identity check failed: restored numbers differ from the baseline", clips);
         else printf("\nidentity check passed: restored = baseline for every n\n");
     }
-    gv_lpips_free(&lpips);
-    gv_dit_free(&m);
-    gv_vae_free(&vae);
+    gv_restore_cli_end(&s);
     return rc == 0 ? 0 : gv_report_failure();
 }

@@ -11,53 +11,11 @@
 
 #include "cli/commands.h"
 #include "gaussvid/core.h"
+#include "gaussvid/weight_files.h"
 #include "gaussvid/model_config.h"
 #include "gaussvid/weight_names.h"
 
-enum { MAX_WEIGHT_FILES = 256, SHOWN_PER_KIND = 10 };
-
-typedef struct {
-    char *names[MAX_WEIGHT_FILES];
-    int n;
-} file_list;
-
-/* The flags parser keeps one value per flag, so every "--weights X" (or --weights=X) is
- * taken out of argv here, before parsing; each X may list several files separated by
- * commas. Returns 0, or 2 after a usage message. */
-static int take_weights(int *argc, char **argv, file_list *files)
-{
-    int kept = 1;
-    for (int i = 1; i < *argc; i++) {
-        const char *value = NULL;
-        if (!strcmp(argv[i], "--weights")) {
-            if (i + 1 >= *argc) {
-                fprintf(stderr, "gaussvid model inspect: --weights needs a value\n");
-                return 2;
-            }
-            value = argv[++i];
-        } else if (!strncmp(argv[i], "--weights=", 10)) {
-            value = argv[i] + 10;
-        } else {
-            argv[kept++] = argv[i];
-            continue;
-        }
-        for (const char *p = value;; p++) {
-            size_t len = strcspn(p, ",");
-            if (len > 0) {
-                if (files->n == MAX_WEIGHT_FILES) {
-                    fprintf(stderr, "gaussvid model inspect: more than %d weight files\n", MAX_WEIGHT_FILES);
-                    return 2;
-                }
-                files->names[files->n] = strndup(p, len);
-                if (!files->names[files->n++]) return 2;
-            }
-            p += len;
-            if (!*p) break;
-        }
-    }
-    *argc = kept;
-    return 0;
-}
+enum { SHOWN_PER_KIND = 10 };
 
 static const char *human(char *out, size_t size, double v)
 {
@@ -289,10 +247,10 @@ typedef struct {
     int json, list, clip[3], clip_given;
 } inspect_options;
 
-static int open_weights(const file_list *names, gv_st_file *files)
+static int open_weights(const gv_flag_list *names, gv_st_file *files)
 {
     for (int f = 0; f < names->n; f++) {
-        if (gv_st_open(&files[f], names->names[f]) != 0) {
+        if (gv_weights_open(&files[f], names->items[f]) != 0) {
             for (int g = 0; g < f; g++) gv_st_close(&files[g]);
             return -1;
         }
@@ -300,7 +258,7 @@ static int open_weights(const file_list *names, gv_st_file *files)
     return 0;
 }
 
-static int inspect(const inspect_options *o, const file_list *names, unsigned parts)
+static int inspect(const inspect_options *o, const gv_flag_list *names, unsigned parts)
 {
     gv_model_config c;
     if (gv_model_config_load(&c, o->config) != 0) return gv_report_failure();
@@ -352,11 +310,11 @@ static int inspect(const inspect_options *o, const file_list *names, unsigned pa
 static int cmd_model_inspect(int argc, char **argv)
 {
     inspect_options o = {NULL, NULL, "all", 0, 0, {5, 144, 256}, 0};
-    const char *unused_weights = NULL;
+    gv_flag_list names = {.n = 0};
     int frames = 0, height = 0, width = 0;
     const gv_flag flags[] = {
         {"config", GV_FLAG_STRING, &o.config, "PRESET|FILE", "a preset (tiny, small, wan2.1-vace-1.3b, wan2.1-vace-14b) or a JSON config", 1},
-        {"weights", GV_FLAG_STRING, &unused_weights, "FILE[,FILE]", "safetensors files to check; repeat the flag or separate with commas", 0},
+        {"weights", GV_FLAG_LIST, &names, "FILE[,FILE]", "safetensors files to check; repeat the flag or separate with commas", 0},
         {"variant", GV_FLAG_STRING, &o.variant, "V", "overrides: camera=none|early|monolithic|decomposed, anchors=..., per_frame=..., lora=RANK", 0},
         {"parts", GV_FLAG_STRING, &o.parts, "P", "parts the files must provide: dit,vace,vae,camera,lora, base, adapters, all (default)", 0},
         {"frames", GV_FLAG_INT, &frames, "N", "clip frames for the cost estimate (default 5)", 0},
@@ -376,13 +334,8 @@ static int cmd_model_inspect(int argc, char **argv)
         "Published Wan2.1 files: --parts base (DiT+VACE\n"
         "and VAE are separate files: give both). See docs/MODEL.md.",
         flags, (int)(sizeof flags / sizeof flags[0]), 0, 0};
-    file_list names = {{0}, 0};
     unsigned parts = GV_PART_ALL;
-    int rc = take_weights(&argc, argv, &names), parsed = GV_ARGS_ERROR;
-    if (!rc) {
-        parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
-        rc = parsed == GV_ARGS_OK ? 0 : gv_args_exit_code(parsed);
-    }
+    int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL), rc = parsed == GV_ARGS_OK ? 0 : gv_args_exit_code(parsed);
     if (parsed == GV_ARGS_OK && gv_parts_parse(o.parts, &parts, "--parts") != 0) {
         fprintf(stderr, "gaussvid model inspect: %s\n", gv_last_error());
         rc = 2;
@@ -394,13 +347,13 @@ static int cmd_model_inspect(int argc, char **argv)
         if (width) o.clip[2] = width;
         rc = inspect(&o, &names, parts);
     }
-    for (int f = 0; f < names.n; f++) free(names.names[f]);
     return rc;
 }
 
 static const gv_subcommand model_commands[] = {
     {"inspect", cmd_model_inspect, "parameter counts per module; check weight files against a config"},
     {"run", cmd_model_run, "one forward pass of a network part on named input tensors"},
+    {"import", cmd_model_import, "a published Wan2.1-VACE release folder as a base checkpoint and VAE"},
 };
 
 int cmd_model(int argc, char **argv)

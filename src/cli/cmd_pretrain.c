@@ -4,37 +4,29 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "cli/cmd_train.h"
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
 
 int cmd_pretrain(int argc, char **argv)
 {
     gv_train_options o;
     gv_train_defaults(&o, GV_OBJECTIVE_PRETRAIN);
-    const char *clips = NULL, *config = "small", *vae = NULL, *variant = NULL, *out = NULL, *log = NULL, *crop = NULL;
-    int steps = (int)o.steps, warmup = (int)o.warmup, seed = 0, ckpt = (int)o.checkpoint_every, stop_after = 0;
-    const gv_flag flags[] = {
+    gv_run_cli run = {NULL, NULL, (int)o.steps, o.batch, (int)o.warmup, 0, (int)o.checkpoint_every, 0, 0, o.lr, {""}};
+    const char *clips = NULL, *config = "small", *vae = NULL, *variant = NULL, *crop = NULL;
+    const gv_flag own[] = {
         {"clips", GV_FLAG_STRING, &clips, "DIR", "dataset folder (manifest.json); its train split is used", 1},
         {"config", GV_FLAG_STRING, &config, "PRESET|FILE", "model config (default small)", 0},
         {"vae", GV_FLAG_STRING, &vae, "FILE", "the trained VAE (.safetensors with latent statistics)", 1},
         {"variant", GV_FLAG_STRING, &variant, "V", "variant overrides, e.g. camera=none (docs/MODEL.md)", 0},
-        {"out", GV_FLAG_STRING, &out, "FILE", "the base checkpoint; FILE.ckpt holds the resumable state", 1},
-        {"steps", GV_FLAG_INT, &steps, "N", "optimiser steps (default 5000)", 0},
-        {"batch", GV_FLAG_INT, &o.batch, "B", "clips per step (default 2)", 0},
-        {"lr", GV_FLAG_DOUBLE, &o.lr, "LR", "peak AdamW learning rate (default 3e-4)", 0},
         {"min-lr", GV_FLAG_DOUBLE, &o.min_lr, "LR", "end of the cosine decay (default 3e-5)", 0},
-        {"warmup", GV_FLAG_INT, &warmup, "N", "linear warm-up steps (default 100)", 0},
         {"shift", GV_FLAG_DOUBLE, &o.shift, "S", "shift of the timestep grid (default 5, as the reference; 1 = none)", 0},
         {"render-context", GV_FLAG_DOUBLE, &o.render_context, "P",
          "share of samples whose VACE context also holds the clip's renders (default 0)", 0},
         {"crop", GV_FLAG_STRING, &crop, "RxC", "train each sample on a random window of R x C tokens of its clip (default: the whole clip)", 0},
-        {"seed", GV_FLAG_INT, &seed, "S", "random seed: initial weights, data order, timesteps, noise (default 0)", 0},
-        {"checkpoint-every", GV_FLAG_INT, &ckpt, "K", "steps between checkpoints FILE.ckpt (default 250)", 0},
-        {"resume", GV_FLAG_BOOL, &o.resume, NULL, "continue from FILE.ckpt when it exists (bit-exact)", 0},
-        {"stop-after", GV_FLAG_INT, &stop_after, "N", "end this run after step N (continue later with --resume)", 0},
-        {"log", GV_FLAG_STRING, &log, "FILE", "tab-separated log: step, seconds, lr, losses", 0},
     };
+    gv_flag flags[sizeof own / sizeof own[0] + GV_RUN_CLI_FLAGS];
+    int n_flags = gv_run_cli_flags(&run, "the base checkpoint; FILE.ckpt holds the resumable state", own,
+                                   sizeof own / sizeof own[0], flags);
     const gv_command_spec spec = {
         "pretrain", NULL, "pretrain the base first-last-frame video model on clean clips",
         "Standard flow matching (reference wan-vace-gaussvid.md 5.5): x_t = (1 - t) z0 + t eps on\n"
@@ -48,21 +40,16 @@ int cmd_pretrain(int argc, char **argv)
         "Every tensor is trained (no LoRA). The clips are encoded once by --vae and cached in\n"
         "the dataset folder. The base keeps the config's LoRA rank in its metadata for\n"
         "`gaussvid train`. See docs/TRAINING.md.",
-        flags, sizeof flags / sizeof flags[0], 0, 0};
+        flags, n_flags, 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
-    if (steps < 1 || o.batch < 1 || warmup < 0 || seed < 0 || ckpt < 1 || stop_after < 0) {
-        fprintf(stderr, "gaussvid pretrain: --steps, --batch and --checkpoint-every must be positive; --warmup, --seed "
-                        "and --stop-after not negative\n");
-        return 2;
-    }
+    if (gv_run_cli_check(&run, "pretrain")) return 2;
     if (crop && gv_parse_crop("pretrain", crop, &o.crop_h, &o.crop_w)) return 2;
     if (!(o.render_context >= 0 && o.render_context <= 1)) {
         fprintf(stderr, "gaussvid pretrain: --render-context is a share of the samples, in [0, 1]\n");
         return 2;
     }
-    o.steps = steps, o.warmup = warmup, o.seed = (uint64_t)seed, o.checkpoint_every = ckpt, o.stop_after = stop_after;
-    o.out = out, o.log_path = log;
+    gv_run_cli_apply(&run, &o);
 
     gv_model_config cfg;
     if (gv_model_config_load(&cfg, config)) return gv_report_failure();
@@ -72,14 +59,10 @@ int cmd_pretrain(int argc, char **argv)
     }
     gv_train_state meta;
     memset(&meta, 0, sizeof meta);
-    snprintf(meta.kind, sizeof meta.kind, "base");
     gv_latent_set set;
     if (gv_train_load_data(clips, vae, NULL, &cfg, &set, &meta)) return gv_report_failure();
-    gv_model_config pre = cfg;
-    pre.lora.rank = 0; /* the base has no adapters; its file keeps cfg's rank for fine-tuning */
     gv_dit m;
-    int rc = gv_dit_init(&m, &pre, o.seed);
-    if (rc == 0) rc = gv_dit_set_train_mode(&m, GV_DIT_FULL);
+    int rc = gv_train_model(&cfg, GV_OBJECTIVE_PRETRAIN, NULL, 0, o.seed, &m, &meta);
     gv_train_report r;
     if (rc == 0)
         gv_info("pretrain: %s (camera %s, anchors %s), %d clips, %.2f M parameters, %ld steps of %d clips", cfg.name,
@@ -90,10 +73,10 @@ int cmd_pretrain(int argc, char **argv)
     gv_latent_set_free(&set);
     if (rc) return gv_report_failure();
     if (r.end_step < o.steps)
-        printf("%s.ckpt: pretrained to step %ld of %ld (%.1f clips/s, %.1f s this run); continue with --resume\n", out,
+        printf("%s.ckpt: pretrained to step %ld of %ld (%.1f clips/s, %.1f s this run); continue with --resume\n", o.out,
                r.end_step, o.steps, r.clips_per_second, r.seconds);
     else
-        printf("%s: base %s pretrained for %ld steps (%ld clips, %.1f clips/s, %.1f s this run, loss %.4f)\n", out,
+        printf("%s: base %s pretrained for %ld steps (%ld clips, %.1f clips/s, %.1f s this run, loss %.4f)\n", o.out,
                cfg.name, o.steps, r.clips_used, r.clips_per_second, r.seconds, r.last_loss);
     return 0;
 }

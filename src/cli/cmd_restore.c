@@ -33,16 +33,25 @@ void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
     c->sampler = GV_SAMPLER_DEFAULT, c->compose = GV_COMPOSE_DEFAULT;
 }
 
-const gv_lpips *gv_restore_cli_lpips(const gv_restore_cli *c, gv_lpips *net, int *failed)
+int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_restore_session *s)
 {
-    memset(net, 0, sizeof *net);
-    *failed = 0;
-    if (!c->lpips) return NULL;
-    if (gv_lpips_load(net, c->lpips)) {
-        *failed = 1;
-        return NULL;
-    }
-    return net;
+    memset(s, 0, sizeof *s);
+    if (gv_restorer_load(c->ckpt, &s->r)) return -1;
+    gv_info("%s: %s checkpoint of %s, step %ld of %ld", c->ckpt, s->r.state.kind, s->r.cfg.name, s->r.state.step,
+            s->r.state.steps);
+    char gate_line[1024];
+    if (gv_restore_cli_gate(c->ckpt, o, gate_line, sizeof gate_line, &s->gate)) return -1;
+    fputs(gate_line, stdout);
+    if (c->lpips && gv_lpips_load(&s->lpips, c->lpips)) return -1;
+    gv_eval_init(&s->table, c->lpips ? &s->lpips : NULL);
+    o->each = gv_eval_add_restored, o->each_ctx = &s->table;
+    return 0;
+}
+
+void gv_restore_cli_end(gv_restore_session *s)
+{
+    gv_lpips_free(&s->lpips);
+    gv_restorer_free(&s->r);
 }
 
 int gv_restore_cli_usage(const char *command, const char *message)
@@ -65,17 +74,6 @@ int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o)
         return gv_fail("--split %s: expected train, eval or all", c->split);
     o->split = c->split && strcmp(c->split, "all") ? c->split : NULL;
     o->use_cache = !c->no_cache;
-    return 0;
-}
-
-int gv_restore_cli_load(const char *ckpt, gv_dit *m, gv_vae *vae, gv_model_config *cfg, char *vae_path, size_t size)
-{
-    gv_train_state state;
-    gv_model_config info;
-    if (gv_checkpoint_read_info(ckpt, &info, &state) || gv_checkpoint_load(ckpt, m, vae, cfg)) return -1;
-    if (gv_checkpoint_vae_path(ckpt, &state, vae_path, size)) snprintf(vae_path, size, "%s", ckpt);
-    gv_clear_error();
-    gv_info("%s: %s checkpoint of %s, step %ld of %ld", ckpt, state.kind, cfg->name, state.step, state.steps);
     return 0;
 }
 
@@ -127,39 +125,20 @@ int cmd_restore(int argc, char **argv)
     if (gv_restore_cli_options(&c, &o)) return gv_restore_cli_usage("restore", gv_last_error());
     if (clip && c.split) return gv_restore_cli_usage("restore", "--split goes with --clips");
 
-    gv_dit m;
-    gv_vae vae;
-    gv_model_config cfg;
-    char vae_path[4200];
-    if (gv_restore_cli_load(c.ckpt, &m, &vae, &cfg, vae_path, sizeof vae_path)) return gv_report_failure();
-    o.out_dir = out, o.save_clips = save_clips, o.vae_path = vae_path;
-    char gate_line[1024];
-    const char *gate;
-    if (gv_restore_cli_gate(c.ckpt, &o, gate_line, sizeof gate_line, &gate)) {
-        gv_dit_free(&m), gv_vae_free(&vae);
-        return gv_report_failure();
-    }
-    fputs(gate_line, stdout);
-    gv_lpips lpips;
-    int failed;
-    const gv_lpips *net = gv_restore_cli_lpips(&c, &lpips, &failed);
-    gv_eval_table table;
-    gv_eval_init(&table, net);
-    o.each = gv_eval_add_restored, o.each_ctx = &table;
-    int rc = failed ? -1 : gv_mkdirs(out);
+    o.out_dir = out, o.save_clips = save_clips;
+    gv_restore_session s;
+    int rc = gv_restore_cli_start(&c, &o, &s) ? -1 : gv_mkdirs(out);
     if (rc == 0) {
         const char *paths[1] = {clip};
-        rc = clip ? gv_restore_files(&m, &vae, paths, 1, &o) : gv_restore_dataset(&m, &vae, clips, &o);
+        rc = clip ? gv_restore_files(&s.r, paths, 1, &o) : gv_restore_dataset(&s.r, clips, &o);
     }
     if (rc == 0) {
         char text[256];
         gv_sampler_describe(&o.sampler, text, sizeof text);
-        gv_eval_finish(&table);
-        printf("%s: %d clips restored (%s, %s composition)\n\n", out, table.mean.clips, text, gv_compose_name(o.compose));
-        gv_eval_print_markdown(&table, stdout);
+        gv_eval_finish(&s.table);
+        printf("%s: %d clips restored (%s, %s composition)\n\n", out, s.table.mean.clips, text, gv_compose_name(o.compose));
+        gv_eval_print_markdown(&s.table, stdout);
     }
-    gv_lpips_free(&lpips);
-    gv_dit_free(&m);
-    gv_vae_free(&vae);
+    gv_restore_cli_end(&s);
     return rc == 0 ? 0 : gv_report_failure();
 }

@@ -6,6 +6,7 @@ static const gv_subcommand splat_commands[] = {
     {"train", cmd_splat_train, "train 3D Gaussian Splatting on the sparse split of a scene"},
     {"render", cmd_splat_render, "render a model from a scene's cameras (or a path) to PNGs"},
     {"eval", cmd_splat_eval, "PSNR and SSIM of a model on held-out and training views"},
+    {"coverage", cmd_splat_coverage, "how much of each held-out view its anchors see, and the error there"},
 };
 
 int cmd_splat(int argc, char **argv)

@@ -126,7 +126,7 @@ int cmd_splat_eval(int argc, char **argv)
     for (int i = 0; i < n; i++) frames[i] = i;
     float bg[3] = {white_bg, white_bg, white_bg};
     if (gv_splat_evaluate(&g, &scene, frames, n, bg, m) != 0) goto done;
-    for (int i = 0; i < n; i++) m[i].train = i % interval == 0;
+    for (int i = 0; i < n; i++) m[i].train = gv_scene_is_train(i, interval);
     print_table(&scene, m, n);
     if (json && write_json(json, model_path, &scene, interval, m, n) != 0) goto done;
     ok = 0;

@@ -5,9 +5,48 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "cli/cmd_train.h"
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+
+int gv_run_cli_flags(gv_run_cli *r, const char *out_help, const gv_flag *own, int n_own, gv_flag *f)
+{
+    snprintf(r->help[0], sizeof r->help[0], "optimiser steps (default %d)", r->steps);
+    snprintf(r->help[1], sizeof r->help[1], "clips per step (default %d)", r->batch);
+    snprintf(r->help[2], sizeof r->help[2], "AdamW learning rate, the peak when it decays (default %g)", r->lr);
+    snprintf(r->help[3], sizeof r->help[3], "linear learning-rate warm-up steps (default %d)", r->warmup);
+    snprintf(r->help[4], sizeof r->help[4], "steps between checkpoints FILE.ckpt (default %d)", r->checkpoint_every);
+    const gv_flag flags[GV_RUN_CLI_FLAGS] = {
+        {"out", GV_FLAG_STRING, &r->out, "FILE", out_help, 1},
+        {"steps", GV_FLAG_INT, &r->steps, "N", r->help[0], 0},
+        {"batch", GV_FLAG_INT, &r->batch, "B", r->help[1], 0},
+        {"lr", GV_FLAG_DOUBLE, &r->lr, "LR", r->help[2], 0},
+        {"warmup", GV_FLAG_INT, &r->warmup, "N", r->help[3], 0},
+        {"seed", GV_FLAG_INT, &r->seed, "S", "random seed of every draw of the run (default 0)", 0},
+        {"checkpoint-every", GV_FLAG_INT, &r->checkpoint_every, "K", r->help[4], 0},
+        {"resume", GV_FLAG_BOOL, &r->resume, NULL, "continue from FILE.ckpt when it exists (bit-exact)", 0},
+        {"stop-after", GV_FLAG_INT, &r->stop_after, "N", "end this run after step N (continue later with --resume)", 0},
+        {"log", GV_FLAG_STRING, &r->log, "FILE", "tab-separated log, a line per step", 0},
+    };
+    memcpy(f, own, (size_t)n_own * sizeof *own);
+    memcpy(f + n_own, flags, sizeof flags);
+    return n_own + GV_RUN_CLI_FLAGS;
+}
+
+int gv_run_cli_check(const gv_run_cli *r, const char *command)
+{
+    if (r->steps >= 1 && r->batch >= 1 && r->checkpoint_every >= 1 && r->warmup >= 0 && r->seed >= 0 && r->stop_after >= 0)
+        return 0;
+    fprintf(stderr, "gaussvid %s: --steps, --batch and --checkpoint-every must be positive; --warmup, --seed and "
+                    "--stop-after not negative\n", command);
+    return 2;
+}
+
+void gv_run_cli_apply(const gv_run_cli *r, gv_train_options *o)
+{
+    o->steps = r->steps, o->batch = r->batch, o->lr = r->lr, o->warmup = r->warmup, o->seed = (uint64_t)r->seed;
+    o->checkpoint_every = r->checkpoint_every, o->stop_after = r->stop_after, o->resume = r->resume;
+    o->out = r->out, o->log_path = r->log;
+}
 
 /* The run's config: the base's, or --config (which must build the same network), then
  * --variant. Returns 0, 1 (failure, message set) or 2 (usage). */
@@ -34,43 +73,22 @@ static int run_config(const char *base, const char *config, const char *variant,
     return 0;
 }
 
-/* The network to fine-tune: fresh adapters and camera encoder, the base's weights loaded. */
-static int build_model(const char *base, const gv_model_config *cfg, uint64_t seed, int fresh_camera, gv_dit *m)
-{
-    int camera_loaded = 0;
-    if (gv_dit_init(m, cfg, seed) || gv_checkpoint_load_base(base, m, !fresh_camera, &camera_loaded) ||
-        gv_dit_set_train_mode(m, GV_DIT_FINETUNE))
-        return -1;
-    if (gv_params_count(&m->params, 1) == 0)
-        return gv_fail("%s: nothing to train in this variant (no LoRA adapters, no camera encoder)", cfg->name);
-    if (cfg->variant.camera != GV_CAMERA_NONE)
-        gv_info("train: camera encoder %s", camera_loaded ? "continued from the base" : "trained from its fresh start");
-    return 0;
-}
-
 int cmd_train(int argc, char **argv)
 {
     gv_train_options o;
     gv_train_defaults(&o, GV_OBJECTIVE_FINETUNE);
-    const char *clips = NULL, *base = NULL, *config = NULL, *vae = NULL, *variant = NULL, *out = NULL, *log = NULL;
+    gv_run_cli run = {NULL, NULL, (int)o.steps, o.batch, (int)o.warmup, 0, (int)o.checkpoint_every, 0, 0, o.lr, {""}};
+    const char *clips = NULL, *base = NULL, *config = NULL, *vae = NULL, *variant = NULL;
     const char *val_clips = NULL, *val_log = NULL, *crop = NULL, *schedule = "constant";
-    int steps = (int)o.steps, warmup = 0, seed = 0, ckpt = (int)o.checkpoint_every, stop_after = 0, s_w = 0;
-    int val_every = 0;
-    int no_curriculum = 0, no_progressive = 0;
-    const gv_flag flags[] = {
+    int s_w = 0, val_every = 0, no_curriculum = 0, no_progressive = 0;
+    const gv_flag own[] = {
         {"clips", GV_FLAG_STRING, &clips, "DIR", "dataset folder (manifest.json); its train split is used", 1},
         {"base", GV_FLAG_STRING, &base, "FILE", "the base checkpoint (gaussvid pretrain)", 1},
-        {"out", GV_FLAG_STRING, &out, "FILE", "the fine-tuned checkpoint; FILE.ckpt holds the resumable state", 1},
         {"config", GV_FLAG_STRING, &config, "PRESET|FILE", "check the base against this config and take its variant and LoRA", 0},
         {"vae", GV_FLAG_STRING, &vae, "FILE", "the VAE (default: the one the base names; must be the same)", 0},
         {"variant", GV_FLAG_STRING, &variant, "V", "ablation: camera=none|early|monolithic|decomposed, anchors=none|first|both, per-frame, lora=R", 0},
-        {"steps", GV_FLAG_INT, &steps, "N", "optimiser steps S (default 5000)", 0},
-        {"batch", GV_FLAG_INT, &o.batch, "B", "clips per step (default 2)", 0},
-        {"lr", GV_FLAG_DOUBLE, &o.lr, "LR", "AdamW learning rate after the warm-up (default 1e-4, the paper's)", 0},
-        {"warmup", GV_FLAG_INT, &warmup, "N", "linear learning-rate warm-up steps (default 0)", 0},
         {"lr-schedule", GV_FLAG_STRING, &schedule, "NAME",
          "after the warm-up: constant (default, the paper's), linear or cosine (both decay to 0 at step S)", 0},
-        {"seed", GV_FLAG_INT, &seed, "S", "random seed: adapters, data order, timesteps, noise (default 0)", 0},
         {"no-curriculum", GV_FLAG_BOOL, &no_curriculum, NULL, "ablation: shuffled clips, all weighted 1", 0},
         {"no-progressive-loss", GV_FLAG_BOOL, &no_progressive, NULL, "ablation: flow matching loss only", 0},
         {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's (the paper trains it from scratch)", 0},
@@ -81,14 +99,13 @@ int cmd_train(int argc, char **argv)
         {"p-w", GV_FLAG_DOUBLE, &o.p_w, "P", "curriculum warm-up fraction (default 0.05)", 0},
         {"n-min", GV_FLAG_INT, &o.n_min, "N", "interval of difficulty 0 (default 6)", 0},
         {"n-max", GV_FLAG_INT, &o.n_max, "N", "interval of difficulty 1, reached by delta_max only at step S (default 26)", 0},
-        {"checkpoint-every", GV_FLAG_INT, &ckpt, "K", "steps between checkpoints FILE.ckpt (default 250)", 0},
-        {"resume", GV_FLAG_BOOL, &o.resume, NULL, "continue from FILE.ckpt when it exists (bit-exact)", 0},
-        {"stop-after", GV_FLAG_INT, &stop_after, "N", "end this run after step N (continue later with --resume)", 0},
-        {"log", GV_FLAG_STRING, &log, "FILE", "tab-separated log: step, seconds, lr, losses, curriculum threshold", 0},
         {"val-clips", GV_FLAG_STRING, &val_clips, "DIR", "validate on the eval split of this dataset folder", 0},
         {"val-every", GV_FLAG_INT, &val_every, "K", "steps between validations (default: the checkpoint interval)", 0},
         {"val-log", GV_FLAG_STRING, &val_log, "FILE", "tab-separated validation log: step, n, clips, loss, identity", 0},
     };
+    gv_flag flags[sizeof own / sizeof own[0] + GV_RUN_CLI_FLAGS];
+    int n_flags = gv_run_cli_flags(&run, "the fine-tuned checkpoint; FILE.ckpt holds the resumable state", own,
+                                   sizeof own / sizeof own[0], flags);
     const gv_command_spec spec = {
         "train", NULL, "GaussVid fine-tuning of a base model (LoRA + camera encoder)",
         "Objective (paper 3.4): x_t = (1 - t) z-hat + t eps from the corrupted clip's latent,\n"
@@ -96,16 +113,16 @@ int cmd_train(int argc, char **argv)
         "L1(x_t - t v, z0*) weighted 0.1 clamp((s - S_w)/S_w, 0, 1) max(0, 1 - t/0.3); the\n"
         "curriculum skips clips with delta(n) = (n - 6)/20 above delta_max(s) (warm-up 0.05 S)\n"
         "and weights the others 1 - 0.4 delta/delta_max. The base (and its VAE) is frozen;\n"
-        "LoRA and the Plücker camera encoder train (AdamW). The output holds the base weights\n"
-        "too, so it loads alone. With --val-clips the loss on unseen clips (fixed draws) is\n"
-        "shown beside the identity's, the loss of leaving the renders unchanged: below it, the\n"
-        "network restores. See docs/TRAINING.md.",
-        flags, sizeof flags / sizeof flags[0], 0, 0};
+        "LoRA and the Plücker camera encoder train (AdamW at a constant rate, the paper's 1e-4).\n"
+        "The output holds the base weights too, so it loads alone. With --val-clips the loss on\n"
+        "unseen clips (fixed draws) is shown beside the identity's, the loss of leaving the\n"
+        "renders unchanged: below it, the network restores. See docs/TRAINING.md.",
+        flags, n_flags, 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
-    if (steps < 1 || o.batch < 1 || warmup < 0 || seed < 0 || ckpt < 1 || stop_after < 0 || s_w < 0 || val_every < 0) {
-        fprintf(stderr, "gaussvid train: --steps, --batch and --checkpoint-every must be positive; --warmup, --seed, "
-                        "--stop-after, --latent-warmup and --val-every not negative\n");
+    if (gv_run_cli_check(&run, "train")) return 2;
+    if (s_w < 0 || val_every < 0) {
+        fprintf(stderr, "gaussvid train: --latent-warmup and --val-every must not be negative\n");
         return 2;
     }
     if (crop && gv_parse_crop("train", crop, &o.crop_h, &o.crop_w)) return 2;
@@ -117,10 +134,10 @@ int cmd_train(int argc, char **argv)
         fprintf(stderr, "gaussvid train: --val-every and --val-log need --val-clips\n");
         return 2;
     }
-    o.steps = steps, o.warmup = warmup, o.seed = (uint64_t)seed, o.checkpoint_every = ckpt, o.stop_after = stop_after;
+    gv_run_cli_apply(&run, &o);
     o.latent_warmup = s_w, o.curriculum = !no_curriculum, o.progressive = !no_progressive;
-    o.min_lr = o.lr_schedule == GV_LR_CONSTANT ? o.lr : 0.0, o.out = out, o.log_path = log;
-    o.val_every = val_every ? val_every : ckpt, o.val_log = val_log;
+    o.min_lr = o.lr_schedule == GV_LR_CONSTANT ? o.lr : 0.0;
+    o.val_every = val_every ? val_every : run.checkpoint_every, o.val_log = val_log;
 
     gv_model_config cfg;
     gv_train_state base_state, meta;
@@ -130,8 +147,6 @@ int cmd_train(int argc, char **argv)
     if (vae) snprintf(vae_path, sizeof vae_path, "%s", vae);
     else if (gv_checkpoint_vae_path(base, &base_state, vae_path, sizeof vae_path)) return gv_report_failure();
     memset(&meta, 0, sizeof meta);
-    snprintf(meta.kind, sizeof meta.kind, "finetune");
-    snprintf(meta.base, sizeof meta.base, "%s", base);
     gv_latent_set set, val;
     memset(&val, 0, sizeof val);
     if (gv_train_load_data(clips, vae_path, base_state.vae_checksum, &cfg, &set, &meta)) return gv_report_failure();
@@ -142,7 +157,7 @@ int cmd_train(int argc, char **argv)
     o.val = val_clips ? &val : NULL;
     gv_dit m;
     gv_train_report r;
-    rc = build_model(base, &cfg, o.seed, o.fresh_camera, &m);
+    rc = gv_train_model(&cfg, GV_OBJECTIVE_FINETUNE, base, o.fresh_camera, o.seed, &m, &meta);
     char window[64] = "";
     if (crop) snprintf(window, sizeof window, ", random windows of %dx%d tokens", o.crop_h, o.crop_w);
     if (rc == 0)
@@ -158,11 +173,11 @@ int cmd_train(int argc, char **argv)
     gv_latent_set_free(&val);
     if (rc) return gv_report_failure();
     if (r.end_step < o.steps)
-        printf("%s.ckpt: fine-tuned to step %ld of %ld (%.1f clips/s, %.1f s this run); continue with --resume\n", out,
+        printf("%s.ckpt: fine-tuned to step %ld of %ld (%.1f clips/s, %.1f s this run); continue with --resume\n", o.out,
                r.end_step, o.steps, r.clips_per_second, r.seconds);
     else
         printf("%s: %s fine-tuned for %ld steps (%ld clips used, %ld skipped by the curriculum, %.1f clips/s, %.1f s "
                "this run, loss %.4f)\n",
-               out, cfg.name, o.steps, r.clips_used, r.clips_skipped, r.clips_per_second, r.seconds, r.last_loss);
+               o.out, cfg.name, o.steps, r.clips_used, r.clips_skipped, r.clips_per_second, r.seconds, r.last_loss);
     return 0;
 }

@@ -49,13 +49,11 @@ static void accumulate(gv_vae_eval_result *all, const gv_vae_eval_result *r)
 
 int cmd_vae_eval(int argc, char **argv)
 {
-    const char *scenes[VAE_MAX_SCENES];
-    int n_scenes = 0;
-    int rc = vae_take_list("vae eval", "scenes", &argc, argv, scenes, &n_scenes);
-    if (rc) return rc;
+    gv_flag_list scenes = {.n = 0};
     const char *weights = NULL, *config = NULL;
-    int frames = 5, stride = 1, max_clips = 0, downscale = 1, json = 0;
+    int frames = 5, stride = 1, max_clips = 0, downscale = 1, json = 0, rc = 0;
     const gv_flag flags[] = {
+        {"scenes", GV_FLAG_LIST, &scenes, "DIR...", "scene folders (COLMAP sparse/0 or transforms.json)", 1},
         {"weights", GV_FLAG_STRING, &weights, "FILE", "VAE weights (.safetensors)", 1},
         {"config", GV_FLAG_STRING, &config, "PRESET|FILE", "model config (default: the one in the weights' metadata)", 0},
         {"frames", GV_FLAG_INT, &frames, "N", "frames per clip, 1 + k x temporal factor (default 5)", 0},
@@ -66,17 +64,17 @@ int cmd_vae_eval(int argc, char **argv)
     };
     const gv_command_spec spec = {
         "vae eval", NULL, "reconstruction PSNR and SSIM of VAE weights on scene frames",
-        "--scenes DIR... (required) takes one or more scene folders. Each clip of --frames\n"
-        "frames is encoded as Wan does (the first frame alone, then groups of the temporal\n"
-        "factor, through the causal caches), decoded, clamped to [-1, 1] and compared with its\n"
-        "frames: PSNR and SSIM as the 3DGS evaluation computes them, averaged over frames;\n"
-        "also the PSNR of the frames encoded alone (first of each clip) and of the others.\n"
+        "Each clip of --frames frames of every scene is encoded as Wan does (the first frame\n"
+        "alone, then groups of the temporal factor, through the causal caches), decoded, clamped\n"
+        "to [-1, 1] and compared with its frames: PSNR and SSIM as the 3DGS evaluation computes\n"
+        "them, averaged over frames; also the PSNR of the frames encoded alone (first of each\n"
+        "clip) and of the others.\n"
         "Evaluate on frames the VAE was not trained on (another scene).",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
-    if (n_scenes == 0 || frames < 1 || stride < 1 || max_clips < 0) {
-        fprintf(stderr, "gaussvid vae eval: --scenes DIR... is required; --frames and --stride positive\n");
+    if (frames < 1 || stride < 1 || max_clips < 0) {
+        fprintf(stderr, "gaussvid vae eval: --frames and --stride must be positive\n");
         return 2;
     }
     gv_model_config c;
@@ -99,17 +97,17 @@ int cmd_vae_eval(int argc, char **argv)
         printf("%s (%s VAE, %dx spatial, %dx temporal): %d-frame clips, spacing %d\n", weights, c.name,
                c.vae.spatial_factor, c.vae.temporal_factor, frames, stride);
     }
-    for (int i = 0; i < n_scenes && rc == 0; i++) {
+    for (int i = 0; i < scenes.n && rc == 0; i++) {
         gv_vae_frames f;
         gv_vae_eval_result r;
-        if (gv_vae_frames_load(&f, &scenes[i], 1, downscale)) {
+        if (gv_vae_frames_load(&f, &scenes.items[i], 1, downscale)) {
             rc = -1;
             break;
         }
         rc = gv_vae_evaluate(&v, &f, frames, stride, max_clips, &r);
         gv_vae_frames_free(&f);
         if (rc) break;
-        print_result(scenes[i], &r, json, i == n_scenes - 1);
+        print_result(scenes.items[i], &r, json, i == scenes.n - 1);
         accumulate(&all, &r);
     }
     gv_vae_free(&v);

@@ -1,5 +1,6 @@
 /* Command-line flags from a declarative table; --help, --quiet and --threads are common to
- * every command. Flags are "--name value" or "--name=value"; booleans take no value. */
+ * every command. Flags are "--name value" or "--name=value"; booleans take no value; lists
+ * take every value up to the next option. */
 #include "gaussvid/core.h"
 
 #include <errno.h>
@@ -43,6 +44,17 @@ static int usage_error(const gv_command_spec *spec, const char *fmt, const char 
     fprintf(stderr, fmt, arg);
     fprintf(stderr, " (see 'gaussvid %s --help')\n", spec->command);
     return GV_ARGS_ERROR;
+}
+
+/* Appends the comma-separated items of text (split in place) to a list flag. */
+static int add_items(const gv_command_spec *spec, const gv_flag *f, char *text)
+{
+    gv_flag_list *l = f->value;
+    for (char *item = strtok(text, ","); item; item = strtok(NULL, ",")) {
+        if (l->n == GV_FLAG_LIST_MAX) return usage_error(spec, "too many values for --%s", f->name);
+        l->items[l->n++] = item;
+    }
+    return GV_ARGS_OK;
 }
 
 static int set_value(const gv_command_spec *spec, const gv_flag *f, const char *text)
@@ -111,6 +123,15 @@ int gv_args_parse(const gv_command_spec *spec, int argc, char **argv,
         if (flag && flag->type == GV_FLAG_BOOL) {
             if (value) return usage_error(spec, "%s takes no value", arg);
             *(int *)flag->value = 1;
+            if (index < 64) seen[index] = 1;
+            continue;
+        }
+        if (flag && flag->type == GV_FLAG_LIST) {
+            int before = ((gv_flag_list *)flag->value)->n, rc = value ? add_items(spec, flag, (char *)value) : GV_ARGS_OK;
+            while (rc == GV_ARGS_OK && !value && i + 1 < argc && strncmp(argv[i + 1], "--", 2))
+                rc = add_items(spec, flag, argv[++i]);
+            if (rc != GV_ARGS_OK) return rc;
+            if (((gv_flag_list *)flag->value)->n == before) return usage_error(spec, "%s needs a value", arg);
             if (index < 64) seen[index] = 1;
             continue;
         }

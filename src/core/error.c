@@ -7,12 +7,22 @@
 
 static _Thread_local char error_message[1024];
 
+/* A message quotes what it found in the file (a key, a name, a line), and the file may hold
+ * any byte: a control byte (a newline in a JSON key, say) becomes '?', so the message stays
+ * the one line DESIGN.md section 4 promises. */
+static void keep_one_line(char *s)
+{
+    for (; *s; s++)
+        if ((unsigned char)*s < 0x20 || *s == 0x7f) *s = '?';
+}
+
 int gv_fail(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(error_message, sizeof error_message, fmt, ap);
     va_end(ap);
+    keep_one_line(error_message);
     return -1;
 }
 
@@ -26,6 +36,7 @@ int gv_fail_context(const char *fmt, ...)
     memcpy(previous, error_message, sizeof previous);
     snprintf(error_message, sizeof error_message, "%s: %s", prefix,
              previous[0] ? previous : "failed");
+    keep_one_line(error_message);
     return -1;
 }
 

@@ -1,4 +1,4 @@
-/* Whole-file reads, directories, paths, and files written atomically (temporary + rename). */
+/* Whole-file reads, directories and paths (files written atomically: atomic_file.c). */
 #include "gaussvid/core.h"
 
 #include <errno.h>
@@ -68,35 +68,6 @@ int gv_path_join(char *out, size_t size, const char *a, const char *b)
     return 0;
 }
 
-int gv_atomic_open(gv_atomic_file *af, const char *path)
-{
-    memset(af, 0, sizeof *af);
-    if (snprintf(af->path, sizeof af->path, "%s", path) >= (int)sizeof af->path)
-        return gv_fail("%s: path too long", path);
-    snprintf(af->tmp_path, sizeof af->tmp_path, "%s.tmp.%ld", path, (long)getpid());
-    af->f = fopen(af->tmp_path, "wb");
-    if (!af->f) return gv_fail("%s: cannot write: %s", path, strerror(errno));
-    return 0;
-}
-
-int gv_atomic_commit(gv_atomic_file *af)
-{
-    int failed = ferror(af->f);
-    if (fflush(af->f) != 0) failed = 1;
-    if (fclose(af->f) != 0) failed = 1;
-    af->f = NULL;
-    if (failed) {
-        unlink(af->tmp_path);
-        return gv_fail("%s: write error (disk full?)", af->path);
-    }
-    if (rename(af->tmp_path, af->path) != 0) {
-        int e = errno;
-        unlink(af->tmp_path);
-        return gv_fail("%s: cannot rename into place: %s", af->path, strerror(e));
-    }
-    return 0;
-}
-
 int gv_write_text_atomic(const char *path, const char *text)
 {
     gv_atomic_file af;
@@ -104,11 +75,4 @@ int gv_write_text_atomic(const char *path, const char *text)
     fputs(text, af.f);
     fputc('\n', af.f);
     return gv_atomic_commit(&af);
-}
-
-void gv_atomic_abort(gv_atomic_file *af)
-{
-    if (af->f) fclose(af->f);
-    af->f = NULL;
-    if (af->tmp_path[0]) unlink(af->tmp_path);
 }

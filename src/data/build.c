@@ -2,11 +2,9 @@
  * resumable. Every scene and interval is checked before anything is trained; finished runs
  * (listed in the manifest, with their clips and record present) are skipped; temporaries left
  * by a killed build are removed; the options must match those of the runs already built. */
-#include <dirent.h>
 #include <errno.h>
 #include <limits.h>
 #include <omp.h>
-#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -84,35 +82,13 @@ static int same_params(const char *dir, const gv_dataset_params *old, const gv_d
     return 0;
 }
 
-/* Removes the temporaries (name.tmp.<pid>) that a killed writer left in dir. Those of a
- * process still running are left alone: it may be another build writing here. */
-static int remove_stale_temporaries(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d) return 0;
-    int removed = 0;
-    struct dirent *e;
-    while ((e = readdir(d))) {
-        const char *tmp = strstr(e->d_name, ".tmp.");
-        char *end;
-        if (!tmp) continue;
-        long pid = strtol(tmp + 5, &end, 10);
-        if (*end || end == tmp + 5 || pid <= 0 || pid == (long)getpid()) continue;
-        if (kill((pid_t)pid, 0) == 0 || errno == EPERM) continue;
-        char path[4096];
-        if (gv_path_join(path, sizeof path, dir, e->d_name) == 0 && unlink(path) == 0) removed++;
-    }
-    closedir(d);
-    return removed;
-}
-
 static int prepare_out_dir(const char *out)
 {
     static const char *subdirs[] = {"", "clips", "runs"};
     for (int i = 0; i < 3; i++) {
         char path[4096];
         if (gv_path_join(path, sizeof path, out, subdirs[i]) != 0 || gv_mkdirs(path) != 0) return -1;
-        int removed = remove_stale_temporaries(path);
+        int removed = gv_atomic_sweep(path, NULL);
         if (removed) gv_info("%s: removed %d temporary file(s) left by an interrupted build", path, removed);
     }
     return 0;
@@ -172,9 +148,9 @@ static int run_is_complete(const char *out, const gv_manifest *m, const char *na
     *complete = 0;
     int r = gv_manifest_find_run(m, name, n);
     if (r < 0) return 0;
-    if (strcmp(m->runs[r].split, split))
+    if (strcmp(m->runs[r].id.split, split))
         return gv_fail("%s/manifest.json: %s n=%d was built in the %s split, this build puts it in "
-                       "%s (use another --out folder)", out, name, n, m->runs[r].split, split);
+                       "%s (use another --out folder)", out, name, n, m->runs[r].id.split, split);
     char file[GV_SCENE_NAME_MAX + 32], path[4096];
     if (gv_run_file_name(file, sizeof file, name, n) || gv_path_join(path, sizeof path, out, file))
         return -1;
@@ -182,7 +158,7 @@ static int run_is_complete(const char *out, const gv_manifest *m, const char *na
     int clips = 0;
     for (int i = 0; i < m->n_clips; i++) {
         const gv_manifest_clip *c = &m->clips[i];
-        if (c->n != n || strcmp(c->scene, name)) continue;
+        if (c->id.n != n || strcmp(c->id.scene, name)) continue;
         if (gv_path_join(path, sizeof path, out, c->file) != 0 || !gv_file_exists(path)) return 0;
         clips++;
     }
@@ -212,8 +188,10 @@ static int build_one(build_state *b, int r)
     int i = r / opt->n_intervals, n = opt->intervals[r % opt->n_intervals];
     const scene_set *s = b->scenes;
     gv_info("dataset: starting %s n=%d (%s split)", s->names[i], n, s->splits[i]);
-    data_run run = {&s->scenes[i], s->names[i], s->splits[i], n, &opt->params,
-                    opt->simulator ? opt->simulator : &gv_artifact_3dgs, opt->out_dir};
+    data_run run = {&s->scenes[i], {"", "", n}, &opt->params, opt->simulator ? opt->simulator : &gv_artifact_3dgs,
+                    opt->out_dir};
+    snprintf(run.id.scene, sizeof run.id.scene, "%s", s->names[i]);
+    snprintf(run.id.split, sizeof run.id.split, "%s", s->splits[i]);
     gv_run_record rec;
     if (data_build_run(&run, b->manifest, &rec) != 0) return -1;
 #pragma omp critical(gv_dataset_progress)

@@ -7,9 +7,7 @@
 /* One (scene, n) run of `dataset build`. */
 typedef struct {
     const gv_scene *scene;
-    const char *name;                 /* the scene's name */
-    const char *split;                /* "train" or "eval" */
-    int n;
+    gv_run_id id;                     /* the scene's name, its split, n */
     const gv_dataset_params *params;
     const gv_artifact_simulator *simulator;
     const char *out_dir;

@@ -43,7 +43,7 @@ static int render_held_out(const data_run *run, void *model, frame_cache *cache,
     const gv_artifact_simulator *sim = run->simulator;
     gv_progress bar;
     char label[48];
-    snprintf(label, sizeof label, "render n=%d", run->n);
+    snprintf(label, sizeof label, "render n=%d", run->id.n);
     gv_progress_start(&bar, label, rec->n_held_out);
     for (int i = 0; i < rec->n_held_out; i++) {
         int f = rec->held_out[i];
@@ -52,7 +52,7 @@ static int render_held_out(const data_run *run, void *model, frame_cache *cache,
             gv_scene_load_image(run->scene, f, &truth) != 0 ||
             gv_image_psnr_ssim(&render, &truth, &rec->psnr[i], &rec->ssim[i]) != 0) {
             gv_image_free(&render), gv_image_free(&truth);
-            return gv_fail_context("%s: held-out frame %d", run->name, f);
+            return gv_fail_context("%s: held-out frame %d", run->id.scene, f);
         }
         if (cache->needed[f]) {
             cache->renders[f] = render;
@@ -76,19 +76,16 @@ static int render_held_out(const data_run *run, void *model, frame_cache *cache,
 static int score_train_views(const data_run *run, void *model, gv_run_record *rec)
 {
     const gv_artifact_simulator *sim = run->simulator;
-    int n_frames = run->scene->n_frames, n_train = 0, n_held = 0, rc = 0;
-    int *train = malloc((size_t)n_frames * sizeof *train);
-    int *held_out = malloc((size_t)n_frames * sizeof *held_out);
-    if (!train || !held_out) rc = gv_fail("out of memory for %d frames", n_frames);
-    else rc = gv_scene_split(n_frames, run->n, train, &n_train, held_out, &n_held);
+    int n_train = 0, rc = 0;
     double psnr_sum = 0, ssim_sum = 0;
-    for (int i = 0; i < n_train && rc == 0; i++) {
+    for (int f = 0; f < run->scene->n_frames && rc == 0; f++) {
+        if (!gv_scene_is_train(f, run->id.n)) continue;
         gv_image render = {0}, truth = {0};
         double psnr, ssim;
-        if (sim->render(sim->ctx, model, run->scene, train[i], &render) != 0 ||
-            gv_scene_load_image(run->scene, train[i], &truth) != 0 ||
-            gv_image_psnr_ssim(&render, &truth, &psnr, &ssim) != 0)
-            rc = gv_fail_context("%s: training view %d", run->name, train[i]);
+        n_train++;
+        if (sim->render(sim->ctx, model, run->scene, f, &render) != 0 ||
+            gv_scene_load_image(run->scene, f, &truth) != 0 || gv_image_psnr_ssim(&render, &truth, &psnr, &ssim) != 0)
+            rc = gv_fail_context("%s: training view %d", run->id.scene, f);
         else {
             psnr_sum += psnr <= 100.0 ? psnr : 100.0; /* identical images: capped as held-out */
             ssim_sum += ssim;
@@ -100,7 +97,6 @@ static int score_train_views(const data_run *run, void *model, gv_run_record *re
         rec->train_psnr = psnr_sum / n_train;
         rec->train_ssim = ssim_sum / n_train;
     }
-    free(train), free(held_out);
     return rc;
 }
 
@@ -110,9 +106,7 @@ static int write_clip(const data_run *run, const int *frames, const frame_cache 
     const gv_camera *cams = run->scene->cameras;
     gv_clip_info info;
     memset(&info, 0, sizeof info);
-    snprintf(info.scene, sizeof info.scene, "%s", run->name);
-    snprintf(info.split, sizeof info.split, "%s", run->split);
-    info.n = run->n;
+    info.id = run->id;
     info.anchor_gap = run->params->anchor_gap;
     info.iters = run->params->iters;
     info.sampling = run->params->sampling;
@@ -129,7 +123,7 @@ static int write_clip(const data_run *run, const int *frames, const frame_cache 
         if (input->width != info.width || input->height != info.height ||
             cache->truth[f].width != info.width || cache->truth[f].height != info.height) {
             rc = gv_fail("%s: frame %d is %dx%d, the clip's first frame %dx%d: a clip needs one size",
-                         run->name, f, cache->truth[f].width, cache->truth[f].height, info.width, info.height);
+                         run->id.scene, f, cache->truth[f].width, cache->truth[f].height, info.width, info.height);
             break;
         }
         clip.info.frames[i] = f;
@@ -151,13 +145,11 @@ static int write_clips(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int n
         gv_manifest_clip *e = &entries[k];
         char path[4096];
         memset(e, 0, sizeof *e);
-        if (gv_clip_file_name(e->file, sizeof e->file, run->name, run->n, k) != 0 ||
+        if (gv_clip_file_name(e->file, sizeof e->file, run->id.scene, run->id.n, k) != 0 ||
             gv_path_join(path, sizeof path, run->out_dir, e->file) != 0 ||
             write_clip(run, frames[k], cache, path) != 0)
             return -1;
-        snprintf(e->scene, sizeof e->scene, "%s", run->name);
-        snprintf(e->split, sizeof e->split, "%s", run->split);
-        e->n = run->n;
+        e->id = run->id;
         memcpy(e->frames, frames[k], sizeof e->frames);
     }
     return 0;
@@ -171,40 +163,36 @@ static int plan_run(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int *n_c
     int *train = malloc((size_t)n_frames * sizeof *train);
     int *held_out = malloc((size_t)n_frames * sizeof *held_out);
     int n_train = 0, n_held = 0, rc = -1;
-    uint64_t seed = gv_run_seed(run->params->seed, run->name, run->n);
+    uint64_t seed = gv_run_seed(run->params->seed, run->id.scene, run->id.n);
     if (!train || !held_out) gv_fail("out of memory for %d frames", n_frames);
-    else if (gv_scene_split(n_frames, run->n, train, &n_train, held_out, &n_held) == 0 &&
-             gv_sample_clips(n_frames, run->n, run->params->anchor_gap, run->params->sampling,
+    else if (gv_scene_split(n_frames, run->id.n, train, &n_train, held_out, &n_held) == 0 &&
+             gv_sample_clips(n_frames, run->id.n, run->params->anchor_gap, run->params->sampling,
                              run->params->clips_per_run, seed ^ 0x9E3779B97F4A7C15ull, frames,
                              n_clips) == 0 &&
              gv_run_record_alloc(rec, n_held) == 0)
         rc = 0;
     if (rc == 0) {
         memcpy(rec->held_out, held_out, (size_t)n_held * sizeof *held_out);
-        snprintf(rec->scene, sizeof rec->scene, "%s", run->name);
-        snprintf(rec->split, sizeof rec->split, "%s", run->split);
-        rec->n = run->n;
+        rec->id = run->id;
         rec->iters = run->params->iters;
         rec->n_train = n_train;
         rec->n_clips = *n_clips;
     }
     free(train), free(held_out);
-    return rc ? gv_fail_context("%s: n=%d", run->name, run->n) : 0;
+    return rc ? gv_fail_context("%s: n=%d", run->id.scene, run->id.n) : 0;
 }
 
 static int commit_run(const data_run *run, gv_run_record *rec, gv_manifest_clip *entries,
                       gv_manifest *m)
 {
     char name[GV_SCENE_NAME_MAX + 32], path[4096];
-    if (gv_run_file_name(name, sizeof name, run->name, run->n) != 0 ||
+    if (gv_run_file_name(name, sizeof name, run->id.scene, run->id.n) != 0 ||
         gv_path_join(path, sizeof path, run->out_dir, name) != 0 ||
         gv_run_record_write(path, rec) != 0)
         return -1;
     gv_manifest_run entry;
     memset(&entry, 0, sizeof entry);
-    snprintf(entry.scene, sizeof entry.scene, "%s", run->name);
-    snprintf(entry.split, sizeof entry.split, "%s", run->split);
-    entry.n = run->n;
+    entry.id = run->id;
     entry.n_clips = rec->n_clips;
     entry.seconds = rec->seconds;
     if (gv_manifest_add_run(m, &entry, entries, rec->n_clips) != 0) return -1;
@@ -225,9 +213,9 @@ int data_build_run(const data_run *run, gv_manifest *m, gv_run_record *rec)
         cache_init(&cache, run->scene->n_frames, frames, n_clips) != 0)
         goto done;
     const gv_artifact_simulator *sim = run->simulator;
-    if (sim->train(sim->ctx, run->scene, run->n, run->params->iters,
-                   gv_run_seed(run->params->seed, run->name, run->n), &model) != 0) {
-        gv_fail_context("%s: n=%d: %s", run->name, run->n, sim->name);
+    if (sim->train(sim->ctx, run->scene, run->id.n, run->params->iters,
+                   gv_run_seed(run->params->seed, run->id.scene, run->id.n), &model) != 0) {
+        gv_fail_context("%s: n=%d: %s", run->id.scene, run->id.n, sim->name);
         goto done;
     }
     rec->train_seconds = gv_now() - start;

@@ -53,13 +53,13 @@ void gv_clip_set_camera(gv_clip *clip, int f, const gv_camera *cam)
 
 int gv_clip_check_info(const gv_clip_info *info, const char *what)
 {
-    if (!info->scene[0] || strchr(info->scene, '/'))
-        return gv_fail("%s: scene name '%s' is empty or holds a '/'", what, info->scene);
-    if (strcmp(info->split, "train") && strcmp(info->split, "eval"))
-        return gv_fail("%s: split '%s': expected train or eval", what, info->split);
-    if (info->n < 2 || info->anchor_gap < 1 || info->iters < 0)
+    if (!info->id.scene[0] || strchr(info->id.scene, '/'))
+        return gv_fail("%s: scene name '%s' is empty or holds a '/'", what, info->id.scene);
+    if (strcmp(info->id.split, "train") && strcmp(info->id.split, "eval"))
+        return gv_fail("%s: split '%s': expected train or eval", what, info->id.split);
+    if (info->id.n < 2 || info->anchor_gap < 1 || info->iters < 0)
         return gv_fail("%s: n %d, anchor_gap %d, iters %d: need n >= 2, anchor_gap >= 1, "
-                       "iters >= 0", what, info->n, info->anchor_gap, info->iters);
+                       "iters >= 0", what, info->id.n, info->anchor_gap, info->iters);
     if (info->width < 1 || info->height < 1 || info->width > MAX_SIDE || info->height > MAX_SIDE)
         return gv_fail("%s: size %dx%d: outside 1..%d", what, info->width, info->height, MAX_SIDE);
     if ((unsigned)info->sampling > GV_SAMPLING_RELEASED)
@@ -68,15 +68,16 @@ int gv_clip_check_info(const gv_clip_info *info, const char *what)
     for (int i = 1; i < GV_CLIP_FRAMES; i++)
         if (fr[i] <= fr[i - 1])
             return gv_fail("%s: frame_indices are not strictly increasing", what);
-    if (o < 0 || o >= info->n)
-        return gv_fail("%s: offset %d: expected 0..n - 1 (n = %d)", what, o, info->n);
-    if (fr[0] < o || (fr[0] - o) % info->n || (long)fr[4] - fr[0] != (long)info->anchor_gap * info->n)
+    if (o < 0 || o >= info->id.n)
+        return gv_fail("%s: offset %d: expected 0..n - 1 (n = %d)", what, o, info->id.n);
+    if (fr[0] < o || !gv_scene_is_train(fr[0] - o, info->id.n) ||
+        (long)fr[4] - fr[0] != (long)info->anchor_gap * info->id.n)
         return gv_fail("%s: anchors %d and %d are not training views %d * n apart (n = %d, offset %d)",
-                       what, fr[0], fr[4], info->anchor_gap, info->n, o);
+                       what, fr[0], fr[4], info->anchor_gap, info->id.n, o);
     for (int i = 1; i < 4; i++)
-        if ((fr[i] - o) % info->n == 0)
+        if (gv_scene_is_train(fr[i] - o, info->id.n))
             return gv_fail("%s: intermediate frame %d is a training view (n = %d, offset %d)", what,
-                           fr[i], info->n, o);
+                           fr[i], info->id.n, o);
     int supervised = 0;
     for (int i = 0; i < GV_CLIP_FRAMES; i++) {
         int anchor = i == 0 || i == GV_CLIP_FRAMES - 1;
@@ -133,8 +134,8 @@ static int add_metadata(gv_st_builder *b, const gv_clip_info *info)
     if (rc == 0)
         rc = gv_st_add_metadata(b, "format", GV_CLIP_FORMAT) ||
              add_int(b, "format_version", GV_CLIP_FORMAT_VERSION) ||
-             gv_st_add_metadata(b, "scene", info->scene) ||
-             gv_st_add_metadata(b, "split", info->split) || add_int(b, "n", info->n) ||
+             gv_st_add_metadata(b, "scene", info->id.scene) ||
+             gv_st_add_metadata(b, "split", info->id.split) || add_int(b, "n", info->id.n) ||
              add_int(b, "anchor_gap", info->anchor_gap) ||
              gv_st_add_metadata(b, "frame_indices", indices) ||
              gv_st_add_metadata(b, "frame_names", names) || add_int(b, "iters", info->iters) ||
@@ -252,18 +253,18 @@ static int read_metadata(const gv_st_file *f, gv_clip_info *info)
     if (meta_string(f, "scene", &scene) || meta_string(f, "split", &split) ||
         meta_string(f, "sampling", &sampling) || meta_string(f, "seed", &seed))
         return -1;
-    if (strlen(scene) >= sizeof info->scene)
-        return gv_fail("%s: scene name longer than %zu bytes", f->path, sizeof info->scene - 1);
-    snprintf(info->scene, sizeof info->scene, "%s", scene);
-    snprintf(info->split, sizeof info->split, "%.7s", split);
-    if (strlen(split) >= sizeof info->split || gv_sampling_from_name(sampling, &info->sampling))
+    if (strlen(scene) >= sizeof info->id.scene)
+        return gv_fail("%s: scene name longer than %zu bytes", f->path, sizeof info->id.scene - 1);
+    snprintf(info->id.scene, sizeof info->id.scene, "%s", scene);
+    snprintf(info->id.split, sizeof info->id.split, "%.7s", split);
+    if (strlen(split) >= sizeof info->id.split || gv_sampling_from_name(sampling, &info->sampling))
         return gv_fail("%s: split '%s' or sampling '%s' is not valid", f->path, split, sampling);
     char *end;
     errno = 0;
     info->seed = strtoull(seed, &end, 10);
     if (errno || end == seed || *end || seed[0] == '-')
         return gv_fail("%s: metadata seed '%s': expected an unsigned integer", f->path, seed);
-    if (meta_int(f, "n", 2, 1000000, &info->n) || meta_int(f, "anchor_gap", 1, 1000000, &info->anchor_gap) ||
+    if (meta_int(f, "n", 2, 1000000, &info->id.n) || meta_int(f, "anchor_gap", 1, 1000000, &info->anchor_gap) ||
         meta_int(f, "iters", 0, 1000000000, &info->iters) ||
         meta_int(f, "width", 1, MAX_SIDE, &info->width) ||
         meta_int(f, "height", 1, MAX_SIDE, &info->height) || meta_frames(f, info, 0) ||

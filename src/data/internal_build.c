@@ -28,9 +28,9 @@ static void clip_info(const build_ctx *b, const gv_internal_clip *c, gv_clip_inf
 {
     const gv_camera *cams = b->scene->cameras;
     memset(info, 0, sizeof *info);
-    snprintf(info->scene, sizeof info->scene, "%s", b->name);
-    snprintf(info->split, sizeof info->split, "train");
-    info->n = 2 * b->o->interval;
+    snprintf(info->id.scene, sizeof info->id.scene, "%s", b->name);
+    snprintf(info->id.split, sizeof info->id.split, "train");
+    info->id.n = 2 * b->o->interval;
     info->anchor_gap = 1;
     info->iters = b->o->iters;
     info->sampling = GV_SAMPLING_UNIFORM;
@@ -62,7 +62,7 @@ static int clip_present(const build_ctx *b, int i)
         gv_clear_error();
         return 0;
     }
-    return !strcmp(have.scene, want.scene) && have.n == want.n && have.offset == want.offset &&
+    return !strcmp(have.id.scene, want.id.scene) && have.id.n == want.id.n && have.offset == want.offset &&
            have.iters == want.iters && have.seed == want.seed && have.width == want.width &&
            have.height == want.height && !memcmp(have.frames, want.frames, sizeof want.frames) &&
            !memcmp(have.no_target, want.no_target, sizeof want.no_target);
@@ -137,9 +137,9 @@ static int make_record(const build_ctx *b, gv_run_record *rec)
 {
     memset(rec, 0, sizeof *rec);
     if (gv_run_record_alloc(rec, b->count)) return -1;
-    snprintf(rec->scene, sizeof rec->scene, "%s", b->name);
-    snprintf(rec->split, sizeof rec->split, "train");
-    rec->n = 2 * b->o->interval;
+    snprintf(rec->id.scene, sizeof rec->id.scene, "%s", b->name);
+    snprintf(rec->id.split, sizeof rec->id.split, "train");
+    rec->id.n = 2 * b->o->interval;
     rec->iters = b->o->iters;
     rec->n_train = gv_internal_views(b->scene->n_frames, b->o->interval);
     rec->n_clips = b->count;
@@ -169,17 +169,17 @@ static int commit(const build_ctx *b, gv_run_record *rec, double seconds)
         return -1;
     gv_manifest m;
     gv_manifest_init(&m, &b->params);
-    gv_manifest_run run = {.n = 2 * b->o->interval, .n_clips = b->count, .seconds = seconds};
-    snprintf(run.scene, sizeof run.scene, "%s", b->name);
-    snprintf(run.split, sizeof run.split, "train");
+    gv_manifest_run run = {.id.n = 2 * b->o->interval, .n_clips = b->count, .seconds = seconds};
+    snprintf(run.id.scene, sizeof run.id.scene, "%s", b->name);
+    snprintf(run.id.split, sizeof run.id.split, "train");
     gv_manifest_clip *entries = calloc((size_t)b->count, sizeof *entries);
     int rc = entries ? 0 : gv_fail("out of memory for %d clips", b->count);
     for (int i = 0; rc == 0 && i < b->count; i++) {
         gv_manifest_clip *e = &entries[i];
-        rc = gv_clip_file_name(e->file, sizeof e->file, b->name, run.n, i);
-        snprintf(e->scene, sizeof e->scene, "%s", b->name);
-        snprintf(e->split, sizeof e->split, "train");
-        e->n = run.n;
+        rc = gv_clip_file_name(e->file, sizeof e->file, b->name, run.id.n, i);
+        snprintf(e->id.scene, sizeof e->id.scene, "%s", b->name);
+        snprintf(e->id.split, sizeof e->id.split, "train");
+        e->id.n = run.id.n;
         memcpy(e->frames, b->clips[i].frames, sizeof e->frames);
     }
     if (rc == 0) rc = gv_manifest_add_run(&m, &run, entries, b->count);
@@ -198,7 +198,7 @@ static int already_built(const build_ctx *b)
     if (gv_manifest_read(b->o->out_dir, &m, &found)) return -1;
     if (!found) return 0;
     const gv_dataset_params *p = &m.params, *q = &b->params;
-    int same = m.n_runs == 1 && !strcmp(m.runs[0].scene, b->name) && m.runs[0].n == 2 * b->o->interval &&
+    int same = m.n_runs == 1 && !strcmp(m.runs[0].id.scene, b->name) && m.runs[0].id.n == 2 * b->o->interval &&
                p->iters == q->iters && p->seed == q->seed && p->clips_per_run == q->clips_per_run &&
                p->downscale == q->downscale && p->anchor_gap == q->anchor_gap && p->sampling == q->sampling;
     int complete = same && m.n_clips == b->count;

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "gaussvid/dataset.h"
+#include "gaussvid/json.h"
 
 #define MANIFEST_NAME "manifest.json"
 #define MAX_SEED 9007199254740992.0 /* 2^53: integers a JSON number (a double) holds exactly */
@@ -42,23 +43,23 @@ int gv_run_file_name(char *out, size_t size, const char *scene, int n)
 int gv_manifest_find_run(const gv_manifest *m, const char *scene, int n)
 {
     for (int i = 0; i < m->n_runs; i++)
-        if (m->runs[i].n == n && !strcmp(m->runs[i].scene, scene)) return i;
+        if (m->runs[i].id.n == n && !strcmp(m->runs[i].id.scene, scene)) return i;
     return -1;
 }
 
 static int compare_runs(const void *a, const void *b)
 {
     const gv_manifest_run *x = a, *y = b;
-    int c = strcmp(x->scene, y->scene);
-    return c ? c : (x->n > y->n) - (x->n < y->n);
+    int c = strcmp(x->id.scene, y->id.scene);
+    return c ? c : (x->id.n > y->id.n) - (x->id.n < y->id.n);
 }
 
 static int compare_clips(const void *a, const void *b)
 {
     const gv_manifest_clip *x = a, *y = b;
-    int c = strcmp(x->scene, y->scene);
+    int c = strcmp(x->id.scene, y->id.scene);
     if (c) return c;
-    if (x->n != y->n) return x->n < y->n ? -1 : 1;
+    if (x->id.n != y->id.n) return x->id.n < y->id.n ? -1 : 1;
     return strcmp(x->file, y->file);
 }
 
@@ -80,11 +81,11 @@ int gv_manifest_add_run(gv_manifest *m, const gv_manifest_run *run,
 {
     int kept = 0; /* drop the previous entries of this (scene, n) */
     for (int i = 0; i < m->n_runs; i++)
-        if (m->runs[i].n != run->n || strcmp(m->runs[i].scene, run->scene)) m->runs[kept++] = m->runs[i];
+        if (m->runs[i].id.n != run->id.n || strcmp(m->runs[i].id.scene, run->id.scene)) m->runs[kept++] = m->runs[i];
     m->n_runs = kept;
     kept = 0;
     for (int i = 0; i < m->n_clips; i++)
-        if (m->clips[i].n != run->n || strcmp(m->clips[i].scene, run->scene)) m->clips[kept++] = m->clips[i];
+        if (m->clips[i].id.n != run->id.n || strcmp(m->clips[i].id.scene, run->id.scene)) m->clips[kept++] = m->clips[i];
     m->n_clips = kept;
     if (reserve((void **)&m->runs, &m->cap_runs, m->n_runs + 1, sizeof *m->runs) ||
         reserve((void **)&m->clips, &m->cap_clips, m->n_clips + n_clips, sizeof *m->clips))
@@ -121,11 +122,11 @@ static cJSON *manifest_json(const gv_manifest *m)
     for (int i = 0; i < m->n_runs; i++) {
         const gv_manifest_run *r = &m->runs[i];
         char record[GV_SCENE_NAME_MAX + 32] = "";
-        gv_run_file_name(record, sizeof record, r->scene, r->n);
+        gv_run_file_name(record, sizeof record, r->id.scene, r->id.n);
         cJSON *o = cJSON_CreateObject();
-        cJSON_AddStringToObject(o, "scene", r->scene);
-        cJSON_AddNumberToObject(o, "n", r->n);
-        cJSON_AddStringToObject(o, "split", r->split);
+        cJSON_AddStringToObject(o, "scene", r->id.scene);
+        cJSON_AddNumberToObject(o, "n", r->id.n);
+        cJSON_AddStringToObject(o, "split", r->id.split);
         cJSON_AddNumberToObject(o, "clips", r->n_clips);
         cJSON_AddNumberToObject(o, "seconds", round(r->seconds * 10) / 10);
         cJSON_AddStringToObject(o, "record", record);
@@ -136,9 +137,9 @@ static cJSON *manifest_json(const gv_manifest *m)
         const gv_manifest_clip *c = &m->clips[i];
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "file", c->file);
-        cJSON_AddStringToObject(o, "scene", c->scene);
-        cJSON_AddNumberToObject(o, "n", c->n);
-        cJSON_AddStringToObject(o, "split", c->split);
+        cJSON_AddStringToObject(o, "scene", c->id.scene);
+        cJSON_AddNumberToObject(o, "n", c->id.n);
+        cJSON_AddStringToObject(o, "split", c->id.split);
         cJSON_AddItemToObject(o, "frame_indices", cJSON_CreateIntArray(c->frames, GV_CLIP_FRAMES));
         cJSON_AddItemToArray(clips, o);
     }
@@ -163,22 +164,17 @@ int gv_manifest_write(const char *dir, const gv_manifest *m)
 static int get_int(const cJSON *o, const char *key, double min, double max, const char *path,
                    const char *where, double *out)
 {
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
-    if (!cJSON_IsNumber(v) || v->valuedouble != floor(v->valuedouble) || v->valuedouble < min ||
-        v->valuedouble > max)
+    if (gv_json_number(o, key, min, max, 1, out))
         return gv_fail("%s: %s: \"%s\" must be an integer in %.0f..%.0f", path, where, key, min, max);
-    *out = v->valuedouble;
     return 0;
 }
 
 static int get_string(const cJSON *o, const char *key, char *out, size_t size, const char *path,
                       const char *where)
 {
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
-    if (!cJSON_IsString(v) || strlen(v->valuestring) >= size || !v->valuestring[0])
+    if (gv_json_string(o, key, out, size) || !out[0])
         return gv_fail("%s: %s: \"%s\" must be a non-empty string of at most %zu bytes", path,
                        where, key, size - 1);
-    strcpy(out, v->valuestring);
     return 0;
 }
 
@@ -215,13 +211,13 @@ static int read_run(const cJSON *o, const char *path, int i, gv_manifest_run *r)
     memset(r, 0, sizeof *r);
     const cJSON *s = cJSON_GetObjectItemCaseSensitive(o, "seconds");
     if (!cJSON_IsObject(o)) return gv_fail("%s: %s: not an object", path, where);
-    if (get_string(o, "scene", r->scene, sizeof r->scene, path, where) ||
-        get_string(o, "split", r->split, sizeof r->split, path, where) ||
-        check_split(r->split, path, where) || get_int(o, "n", 2, 1e6, path, where, &n) ||
+    if (get_string(o, "scene", r->id.scene, sizeof r->id.scene, path, where) ||
+        get_string(o, "split", r->id.split, sizeof r->id.split, path, where) ||
+        check_split(r->id.split, path, where) || get_int(o, "n", 2, 1e6, path, where, &n) ||
         get_int(o, "clips", 0, 1e6, path, where, &clips))
         return -1;
     seconds = cJSON_IsNumber(s) ? s->valuedouble : 0;
-    r->n = (int)n, r->n_clips = (int)clips, r->seconds = isfinite(seconds) ? seconds : 0;
+    r->id.n = (int)n, r->n_clips = (int)clips, r->seconds = isfinite(seconds) ? seconds : 0;
     return 0;
 }
 
@@ -233,11 +229,11 @@ static int read_clip(const cJSON *o, const char *path, int i, gv_manifest_clip *
     memset(c, 0, sizeof *c);
     if (!cJSON_IsObject(o)) return gv_fail("%s: %s: not an object", path, where);
     if (get_string(o, "file", c->file, sizeof c->file, path, where) ||
-        get_string(o, "scene", c->scene, sizeof c->scene, path, where) ||
-        get_string(o, "split", c->split, sizeof c->split, path, where) ||
-        check_split(c->split, path, where) || get_int(o, "n", 2, 1e6, path, where, &n))
+        get_string(o, "scene", c->id.scene, sizeof c->id.scene, path, where) ||
+        get_string(o, "split", c->id.split, sizeof c->id.split, path, where) ||
+        check_split(c->id.split, path, where) || get_int(o, "n", 2, 1e6, path, where, &n))
         return -1;
-    c->n = (int)n;
+    c->id.n = (int)n;
     const cJSON *list = cJSON_GetObjectItemCaseSensitive(o, "frame_indices");
     if (!cJSON_IsArray(list) || cJSON_GetArraySize(list) != GV_CLIP_FRAMES)
         return gv_fail("%s: %s: \"frame_indices\" must be a list of %d integers", path, where, GV_CLIP_FRAMES);
@@ -266,18 +262,18 @@ static int read_lists(const cJSON *root, const char *path, gv_manifest *m)
     const cJSON *item;
     cJSON_ArrayForEach(item, runs) {
         if (read_run(item, path, m->n_runs, &m->runs[m->n_runs]) != 0) return -1;
-        if (gv_manifest_find_run(m, m->runs[m->n_runs].scene, m->runs[m->n_runs].n) >= 0)
+        if (gv_manifest_find_run(m, m->runs[m->n_runs].id.scene, m->runs[m->n_runs].id.n) >= 0)
             return gv_fail("%s: runs[%d]: run %s n=%d is listed twice", path, m->n_runs,
-                           m->runs[m->n_runs].scene, m->runs[m->n_runs].n);
+                           m->runs[m->n_runs].id.scene, m->runs[m->n_runs].id.n);
         m->n_runs++;
     }
     cJSON_ArrayForEach(item, clips) {
         gv_manifest_clip *c = &m->clips[m->n_clips];
         if (read_clip(item, path, m->n_clips, c) != 0) return -1;
-        int r = gv_manifest_find_run(m, c->scene, c->n);
-        if (r < 0 || strcmp(m->runs[r].split, c->split))
+        int r = gv_manifest_find_run(m, c->id.scene, c->id.n);
+        if (r < 0 || strcmp(m->runs[r].id.split, c->id.split))
             return gv_fail("%s: clips[%d]: %s n=%d (%s) is not a run of the manifest", path,
-                           m->n_clips, c->scene, c->n, c->split);
+                           m->n_clips, c->id.scene, c->id.n, c->id.split);
         m->n_clips++;
     }
     return 0;

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "gaussvid/dataset.h"
+#include "gaussvid/json.h"
 
 /* PSNR of identical images is infinite, which JSON cannot hold: it is recorded as this. */
 #define PSNR_CAP 100.0
@@ -52,9 +53,9 @@ static double tidy(double x) { return round(x * 1e6) / 1e6; }
 int gv_run_record_write(const char *path, const gv_run_record *r)
 {
     cJSON *root = cJSON_CreateObject();
-    cJSON_AddStringToObject(root, "scene", r->scene);
-    cJSON_AddStringToObject(root, "split", r->split);
-    cJSON_AddNumberToObject(root, "n", r->n);
+    cJSON_AddStringToObject(root, "scene", r->id.scene);
+    cJSON_AddStringToObject(root, "split", r->id.split);
+    cJSON_AddNumberToObject(root, "n", r->id.n);
     cJSON_AddNumberToObject(root, "iters", r->iters);
     cJSON_AddNumberToObject(root, "train_views", r->n_train);
     cJSON_AddNumberToObject(root, "clips", r->n_clips);
@@ -87,14 +88,6 @@ int gv_run_record_write(const char *path, const gv_run_record *r)
     return rc;
 }
 
-static int number(const cJSON *o, const char *key, double min, double max, double *out)
-{
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
-    if (!cJSON_IsNumber(v) || !(v->valuedouble >= min && v->valuedouble <= max)) return -1;
-    *out = v->valuedouble;
-    return 0;
-}
-
 static int read_frames(const cJSON *list, const char *path, gv_run_record *r)
 {
     if (!cJSON_IsArray(list)) return gv_fail("%s: \"frames\" must be a list", path);
@@ -103,8 +96,8 @@ static int read_frames(const cJSON *list, const char *path, gv_run_record *r)
     for (int i = 0; i < count; i++) {
         const cJSON *o = cJSON_GetArrayItem(list, i);
         double frame, psnr, ssim;
-        if (number(o, "frame", 0, 1e9, &frame) || frame != floor(frame) ||
-            number(o, "psnr", -PSNR_CAP, PSNR_CAP, &psnr) || number(o, "ssim", -1, 1, &ssim))
+        if (gv_json_number(o, "frame", 0, 1e9, 1, &frame) ||
+            gv_json_number(o, "psnr", -PSNR_CAP, PSNR_CAP, 0, &psnr) || gv_json_number(o, "ssim", -1, 1, 0, &ssim))
             return gv_fail("%s: frames[%d]: needs an integer \"frame\", \"psnr\" in -100..100 and "
                            "\"ssim\" in -1..1", path, i);
         r->held_out[i] = (int)frame, r->psnr[i] = psnr, r->ssim[i] = ssim;
@@ -117,9 +110,8 @@ static int read_train(const cJSON *train, const char *path, gv_run_record *r)
 {
     if (!train) return 0;
     double psnr, ssim, frames;
-    if (!cJSON_IsObject(train) || number(train, "psnr", -PSNR_CAP, PSNR_CAP, &psnr) ||
-        number(train, "ssim", -1, 1, &ssim) || number(train, "frames", 1, 1e9, &frames) ||
-        frames != floor(frames))
+    if (!cJSON_IsObject(train) || gv_json_number(train, "psnr", -PSNR_CAP, PSNR_CAP, 0, &psnr) ||
+        gv_json_number(train, "ssim", -1, 1, 0, &ssim) || gv_json_number(train, "frames", 1, 1e9, 1, &frames))
         return gv_fail("%s: \"train\" needs \"psnr\" in -100..100, \"ssim\" in -1..1 and an "
                        "integer \"frames\" of at least 1", path);
     r->train_psnr = psnr, r->train_ssim = ssim, r->train_frames = (int)frames;
@@ -134,28 +126,25 @@ int gv_run_record_read(const char *path, gv_run_record *r)
     if (gv_read_file(path, &text, &size) != 0) return -1;
     cJSON *root = cJSON_ParseWithLength(text, size);
     free(text);
-    const cJSON *scene = cJSON_GetObjectItemCaseSensitive(root, "scene");
-    const cJSON *split = cJSON_GetObjectItemCaseSensitive(root, "split");
     double v[6];
     int rc = 0;
     if (!cJSON_IsObject(root)) rc = gv_fail("%s: not a JSON object", path);
-    else if (!cJSON_IsString(scene) || strlen(scene->valuestring) >= sizeof r->scene ||
-             !cJSON_IsString(split) || strlen(split->valuestring) >= sizeof r->split)
+    else if (gv_json_string(root, "scene", r->id.scene, sizeof r->id.scene) ||
+             gv_json_string(root, "split", r->id.split, sizeof r->id.split))
         rc = gv_fail("%s: \"scene\" and \"split\" must be short strings", path);
-    else if (number(root, "n", 2, 1e6, &v[0]) || number(root, "iters", 0, 1e9, &v[1]) ||
-             number(root, "train_views", 0, 1e9, &v[2]) || number(root, "clips", 0, 1e6, &v[3]) ||
-             number(root, "seconds", 0, 1e12, &v[4]) || number(root, "train_seconds", 0, 1e12, &v[5]))
+    else if (gv_json_number(root, "n", 2, 1e6, 0, &v[0]) || gv_json_number(root, "iters", 0, 1e9, 0, &v[1]) ||
+             gv_json_number(root, "train_views", 0, 1e9, 0, &v[2]) || gv_json_number(root, "clips", 0, 1e6, 0, &v[3]) ||
+             gv_json_number(root, "seconds", 0, 1e12, 0, &v[4]) ||
+             gv_json_number(root, "train_seconds", 0, 1e12, 0, &v[5]))
         rc = gv_fail("%s: needs numbers \"n\", \"iters\", \"train_views\", \"clips\", \"seconds\" "
                      "and \"train_seconds\" in range", path);
     else
         rc = read_frames(cJSON_GetObjectItemCaseSensitive(root, "frames"), path, r);
     if (rc == 0) {
-        snprintf(r->scene, sizeof r->scene, "%s", scene->valuestring);
-        snprintf(r->split, sizeof r->split, "%s", split->valuestring);
-        r->n = (int)v[0], r->iters = (int)v[1], r->n_train = (int)v[2], r->n_clips = (int)v[3];
+        r->id.n = (int)v[0], r->iters = (int)v[1], r->n_train = (int)v[2], r->n_clips = (int)v[3];
         r->seconds = v[4], r->train_seconds = v[5];
         double render;
-        r->render_seconds = number(root, "render_seconds", 0, 1e12, &render) ? 0 : render;
+        r->render_seconds = gv_json_number(root, "render_seconds", 0, 1e12, 0, &render) ? 0 : render;
         rc = read_train(cJSON_GetObjectItemCaseSensitive(root, "train"), path, r);
         gv_run_record_summarise(r);
     }

@@ -54,7 +54,7 @@ int gv_clip_anchor_count(int n_frames, int interval, int anchor_gap)
 static int held_out_between(int a, int b, int n)
 {
     int count = 0;
-    for (int f = a + 1; f < b; f++) count += f % n != 0;
+    for (int f = a + 1; f < b; f++) count += !gv_scene_is_train(f, n);
     return count;
 }
 
@@ -76,7 +76,7 @@ static int place_frame(long num, int prev, int e, int n, int after)
     int best = -1;
     long best_distance = 0;
     for (int c = prev + 1; c < e; c++) {
-        if (c % n == 0 || held_out_between(c, e, n) < after) continue;
+        if (gv_scene_is_train(c, n) || held_out_between(c, e, n) < after) continue;
         if (c == p) return c;
         long distance = labs(4L * c - num);
         if (best < 0 || distance < best_distance) best = c, best_distance = distance;
@@ -93,7 +93,7 @@ static int random_frames(int s, int e, int n, gv_rng *rng, int out[3])
     /* Selection sampling (Knuth's algorithm S): each held-out frame in order is taken with
      * probability (still needed) / (still available), which yields a uniform 3-subset. */
     for (int f = s + 1; f < e && chosen < 3; f++) {
-        if (f % n == 0) continue;
+        if (gv_scene_is_train(f, n)) continue;
         double u = gv_rng_uniform(rng);
         if ((double)(size - count) * u < (double)(3 - chosen)) pool[chosen++] = f;
         count++;
@@ -108,7 +108,7 @@ int gv_clip_frames(int n_frames, int interval, int anchor_gap, gv_clip_sampling 
 {
     if (gv_clip_check_interval(n_frames, interval, anchor_gap) != 0) return -1;
     int gap = anchor_gap * interval, e = s + gap;
-    if (s < 0 || s % interval != 0 || e > n_frames - 1)
+    if (s < 0 || !gv_scene_is_train(s, interval) || e > n_frames - 1)
         return gv_fail("first anchor %d: not a training view with a second anchor at %d within "
                        "the scene's %d frames (interval %d)", s, e, n_frames, interval);
     frames[0] = s;

@@ -22,13 +22,13 @@ static int add_record(const char *dir, const gv_manifest_run *run, gv_dataset_st
 {
     char file[GV_SCENE_NAME_MAX + 32], path[4096];
     gv_run_record rec;
-    if (gv_run_file_name(file, sizeof file, run->scene, run->n) != 0 ||
+    if (gv_run_file_name(file, sizeof file, run->id.scene, run->id.n) != 0 ||
         gv_path_join(path, sizeof path, dir, file) != 0 || gv_run_record_read(path, &rec) != 0)
         return -1;
     int rc = 0;
-    if (strcmp(rec.scene, run->scene) || rec.n != run->n)
-        rc = gv_fail("%s: holds %s n=%d, the manifest expects %s n=%d", path, rec.scene, rec.n,
-                     run->scene, run->n);
+    if (strcmp(rec.id.scene, run->id.scene) || rec.id.n != run->id.n)
+        rc = gv_fail("%s: holds %s n=%d, the manifest expects %s n=%d", path, rec.id.scene, rec.id.n,
+                     run->id.scene, run->id.n);
     row->runs++;
     row->frames += rec.n_held_out;
     row->psnr += rec.psnr_mean * rec.n_held_out;
@@ -50,17 +50,17 @@ int gv_dataset_stats_read(const char *dir, gv_dataset_stats *out)
     out->n_clips = m.n_clips;
     int rc = 0;
     for (int i = 0; i < m.n_runs && rc == 0; i++) {
-        gv_dataset_stats_row *row = row_of(out, m.runs[i].n);
+        gv_dataset_stats_row *row = row_of(out, m.runs[i].id.n);
         if (!row) rc = gv_fail("%s: more than %d intervals", dir, GV_MAX_INTERVALS);
         else rc = add_record(dir, &m.runs[i], row);
         int seen = 0; /* count each scene once */
-        for (int j = 0; j < i; j++) seen |= !strcmp(m.runs[j].scene, m.runs[i].scene);
+        for (int j = 0; j < i; j++) seen |= !strcmp(m.runs[j].id.scene, m.runs[i].id.scene);
         out->n_scenes += !seen;
     }
     for (int i = 0; i < m.n_clips && rc == 0; i++) {
-        gv_dataset_stats_row *row = row_of(out, m.clips[i].n);
+        gv_dataset_stats_row *row = row_of(out, m.clips[i].id.n);
         if (!row) rc = gv_fail("%s: more than %d intervals", dir, GV_MAX_INTERVALS);
-        else if (!strcmp(m.clips[i].split, "eval")) row->clips_eval++;
+        else if (!strcmp(m.clips[i].id.split, "eval")) row->clips_eval++;
         else row->clips_train++;
     }
     for (int i = 0; i < out->n_rows; i++) {

@@ -50,11 +50,11 @@ int gv_eval_add(gv_eval_table *t, const gv_clip *clip, const uint8_t *restored)
             double psnr, ssim, lpips = 0;
             if (gv_image_psnr_ssim(&frames[k], &truth, &psnr, &ssim) ||
                 (t->lpips && gv_lpips_distance(t->lpips, &frames[k], &truth, &lpips)))
-                return gv_fail_context("eval: clip %s n%d frame %d", info->scene, info->n, info->frames[f]);
+                return gv_fail_context("eval: clip %s n%d frame %d", info->id.scene, info->id.n, info->frames[f]);
             sums[3 * k] += psnr, sums[3 * k + 1] += ssim, sums[3 * k + 2] += lpips;
         }
     }
-    gv_eval_row *r = row_of(t, info->n);
+    gv_eval_row *r = row_of(t, info->id.n);
     if (!r) return gv_fail("eval: more than %d intervals", GV_MAX_INTERVALS);
     gv_eval_row *rows[2] = {r, &t->mean};
     for (int k = 0; k < 2; k++) {

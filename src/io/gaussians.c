@@ -40,6 +40,27 @@ int gv_gaussians_reserve(gv_gaussians *g, int capacity)
     return 0;
 }
 
+void gv_gaussians_copy_row(gv_gaussians *g, int dst, int src)
+{
+    size_t w = 3 * (size_t)gv_sh_coefficient_count(g->sh_degree);
+    memcpy(g->means + 3 * (size_t)dst, g->means + 3 * (size_t)src, 3 * sizeof(float));
+    memcpy(g->sh + w * dst, g->sh + w * src, w * sizeof(float));
+    g->opacities[dst] = g->opacities[src];
+    memcpy(g->scales + 3 * (size_t)dst, g->scales + 3 * (size_t)src, 3 * sizeof(float));
+    memcpy(g->rotations + 4 * (size_t)dst, g->rotations + 4 * (size_t)src, 4 * sizeof(float));
+}
+
+void gv_gaussians_zero_rows(gv_gaussians *g, int from, int to)
+{
+    if (to <= from) return;
+    size_t n = (size_t)(to - from), w = 3 * (size_t)gv_sh_coefficient_count(g->sh_degree);
+    memset(g->means + 3 * (size_t)from, 0, 3 * n * sizeof(float));
+    memset(g->sh + w * from, 0, w * n * sizeof(float));
+    memset(g->opacities + from, 0, n * sizeof(float));
+    memset(g->scales + 3 * (size_t)from, 0, 3 * n * sizeof(float));
+    memset(g->rotations + 4 * (size_t)from, 0, 4 * n * sizeof(float));
+}
+
 int gv_gaussians_alloc(gv_gaussians *g, int n, int sh_degree)
 {
     memset(g, 0, sizeof *g);

@@ -1,6 +1,7 @@
 /* The 3DGS model PLY (reference section 18.1): one vertex per Gaussian with x y z, nx ny nz,
  * f_dc_0..2, f_rest_0..(3(K-1)-1) channel-major, opacity, scale_0..2, rot_0..3. The reader
  * finds properties by name; the writer uses the reference names, order and float32 LE. */
+#include <errno.h>
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
@@ -195,8 +196,9 @@ int gv_gaussians_write_ply(const char *path, const gv_gaussians *g)
     for (int i = 0; i < g->n; i++) {
         pack_gaussian(g, i, record);
         if (fwrite(record, 1, (size_t)record_size, af.f) != (size_t)record_size) {
+            int e = errno;
             gv_atomic_abort(&af);
-            return gv_fail("%s: write error (disk full?)", path);
+            return gv_fail("%s: write error: %s", path, strerror(e));
         }
     }
     return gv_atomic_commit(&af);

@@ -273,7 +273,7 @@ static int by_name(const void *a, const void *b)
     return strcmp(((const name_index *)a)->name, ((const name_index *)b)->name);
 }
 
-static int build_name_index(gv_st_file *f)
+int gv_st_build_name_index(gv_st_file *f)
 {
     name_index *pairs = malloc(((size_t)f->n_tensors + 1) * sizeof *pairs);
     f->by_name = malloc(((size_t)f->n_tensors + 1) * sizeof *f->by_name);
@@ -332,7 +332,7 @@ int gv_st_parse_header(gv_st_file *f, const char *text, size_t n)
         gv_fail("%s: header is not a JSON object", f->path);
     else if (parse_entries(f, root, n) == 0) {
         qsort(f->tensors, (size_t)f->n_tensors, sizeof *f->tensors, by_offset);
-        rc = build_name_index(f) || check_layout(f) ? -1 : 0;
+        rc = gv_st_build_name_index(f) || check_layout(f) ? -1 : 0;
     }
     cJSON_Delete(root);
     return rc;

@@ -10,6 +10,9 @@
  * region holds f->data_size bytes; fills f's tensors (sorted by offset, data pointers unset),
  * name index and metadata. On failure records one message; gv_st_close frees what was set. */
 int gv_st_parse_header(gv_st_file *f, const char *text, size_t n);
+/* Builds f->by_name (tensor indices sorted by name) for gv_st_find; fails, naming f->path,
+ * when a name appears twice. */
+int gv_st_build_name_index(gv_st_file *f);
 /* Whether the n bytes at s are valid UTF-8 (no overlong forms, surrogates or values above
  * U+10FFFF): the reference decodes headers as UTF-8 and refuses anything else. */
 int gv_st_utf8_valid(const char *s, size_t n);

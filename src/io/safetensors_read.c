@@ -24,6 +24,7 @@ enum { CONVERT_CHUNK = 1 << 16 };
 
 void gv_st_close(gv_st_file *f)
 {
+    if (f->release) f->release(f->owner);
     if (f->map) munmap((void *)f->map, (size_t)f->file_size);
     free(f->path);
     free(f->tensors);

@@ -1,6 +1,7 @@
 /* The antimatter15 .splat format (reference section 18.3): 32 bytes per Gaussian, no header,
  * little-endian, sorted by descending exp(s0 + s1 + s2) * sigmoid(opacity). Only the DC
  * term of the colour survives; higher SH coefficients are dropped. */
+#include <errno.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -91,9 +92,10 @@ int gv_gaussians_write_splat(const char *path, const gv_gaussians *g)
         unsigned char record[32];
         pack_splat(g, order[i].index, record);
         if (fwrite(record, 1, 32, af.f) != 32) {
+            int e = errno;
             gv_atomic_abort(&af);
             free(order);
-            return gv_fail("%s: write error (disk full?)", path);
+            return gv_fail("%s: write error: %s", path, strerror(e));
         }
     }
     free(order);

@@ -4,12 +4,14 @@
 
 #include <cjson/cJSON.h>
 #include <ctype.h>
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "gaussvid/core.h"
 #include "gaussvid/image.h"
+#include "gaussvid/json.h"
 
 #define MAX_IMAGE_SIDE 1000000
 
@@ -40,12 +42,9 @@ static int get_number(reader_ctx *c, const char *key, double *v, int *found)
     char where[64];
     const cJSON *item = lookup(c, key, where, sizeof where);
     *found = item != NULL;
-    if (!item) return 0;
+    if (!item || gv_json_number(where[0] ? c->frame : c->root, key, -DBL_MAX, DBL_MAX, 0, v) == 0) return 0;
     if (!cJSON_IsNumber(item)) return gv_fail("%s: %s%s is not a number", c->path, where, key);
-    if (!isfinite(item->valuedouble))
-        return gv_fail("%s: %s%s is not finite (%g)", c->path, where, key, item->valuedouble);
-    *v = item->valuedouble;
-    return 0;
+    return gv_fail("%s: %s%s is not finite (%g)", c->path, where, key, item->valuedouble);
 }
 
 static int missing_key(reader_ctx *c, const char *key)
@@ -251,7 +250,7 @@ static void preceding_key(const char *data, const char *at, char *key, size_t si
         if (*p != ':') continue;
         const char *q = p - 1;
         while (q > data && isspace((unsigned char)*q)) q--;
-        if (*q != '"') continue;
+        if (*q != '"' || q == data) continue; /* the key's closing quote, with room for its opening one */
         const char *s = q - 1;
         while (s > data && *s != '"') s--;
         if (*s == '"') snprintf(key, size, "%.*s", (int)(q - s - 1), s + 1);

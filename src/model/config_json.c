@@ -3,6 +3,7 @@
  * the canonical writer (every field, fixed order) used for files and checkpoint metadata. */
 #include "gaussvid/model_config.h"
 #include "gaussvid/core.h"
+#include "gaussvid/json.h"
 #include "model/config_internal.h"
 
 #include <cjson/cJSON.h>
@@ -13,17 +14,6 @@
 #include <string.h>
 
 enum { MAX_CONFIG_BYTES = 1 << 20 };
-
-static const char *json_type(const cJSON *j)
-{
-    if (cJSON_IsString(j)) return "a string";
-    if (cJSON_IsNumber(j)) return "a number";
-    if (cJSON_IsBool(j)) return "a boolean";
-    if (cJSON_IsNull(j)) return "null";
-    if (cJSON_IsArray(j)) return "an array";
-    if (cJSON_IsObject(j)) return "an object";
-    return "an invalid value";
-}
 
 /* Reading context: the file and the section ("dit", "vae", ...; "" at the top). */
 typedef struct {
@@ -67,7 +57,7 @@ static int lookup(reader *r, const cJSON *obj, const char *name, int required, c
 
 static int to_int(reader *r, const char *name, const cJSON *j, int *out)
 {
-    if (!cJSON_IsNumber(j)) return gv_config_bad(r->src, full_key(r, name), "expected an integer, got %s", json_type(j));
+    if (!cJSON_IsNumber(j)) return gv_config_bad(r->src, full_key(r, name), "expected an integer, got %s", gv_json_type(j));
     double v = j->valuedouble;
     if (v != floor(v) || fabs(v) > INT_MAX) return gv_config_bad(r->src, full_key(r, name), "expected an integer, got %g", v);
     *out = (int)v;
@@ -85,9 +75,8 @@ static int get_double(reader *r, const cJSON *obj, const char *name, int require
 {
     const cJSON *j;
     if (lookup(r, obj, name, required, &j)) return -1;
-    if (!j) return 0;
-    if (!cJSON_IsNumber(j)) return gv_config_bad(r->src, full_key(r, name), "expected a number, got %s", json_type(j));
-    *out = j->valuedouble;
+    if (j && gv_json_number(obj, name, -HUGE_VAL, HUGE_VAL, 0, out))
+        return gv_config_bad(r->src, full_key(r, name), "expected a number, got %s", gv_json_type(j));
     return 0;
 }
 
@@ -96,7 +85,7 @@ static int get_bool(reader *r, const cJSON *obj, const char *name, int required,
     const cJSON *j;
     if (lookup(r, obj, name, required, &j)) return -1;
     if (!j) return 0;
-    if (!cJSON_IsBool(j)) return gv_config_bad(r->src, full_key(r, name), "expected true or false, got %s", json_type(j));
+    if (!cJSON_IsBool(j)) return gv_config_bad(r->src, full_key(r, name), "expected true or false, got %s", gv_json_type(j));
     *out = cJSON_IsTrue(j) ? 1 : 0;
     return 0;
 }
@@ -106,7 +95,7 @@ static int get_string(reader *r, const cJSON *obj, const char *name, const char 
     const cJSON *j;
     if (lookup(r, obj, name, 0, &j)) return -1;
     if (!j) return 0;
-    if (!cJSON_IsString(j)) return gv_config_bad(r->src, full_key(r, name), "expected a string, got %s", json_type(j));
+    if (!cJSON_IsString(j)) return gv_config_bad(r->src, full_key(r, name), "expected a string, got %s", gv_json_type(j));
     *out = j->valuestring;
     return 0;
 }
@@ -117,7 +106,7 @@ static int get_list(reader *r, const cJSON *obj, const char *name, int required,
     const cJSON *j;
     if (lookup(r, obj, name, required, &j)) return -1;
     if (!j) return 0;
-    if (!cJSON_IsArray(j)) return gv_config_bad(r->src, full_key(r, name), "expected an array, got %s", json_type(j));
+    if (!cJSON_IsArray(j)) return gv_config_bad(r->src, full_key(r, name), "expected an array, got %s", gv_json_type(j));
     int count = cJSON_GetArraySize(j);
     if (count > max) return gv_config_bad(r->src, full_key(r, name), "has %d entries, at most %d allowed", count, max);
     int i = 0;
@@ -125,10 +114,10 @@ static int get_list(reader *r, const cJSON *obj, const char *name, int required,
         if (kind == 'i') {
             if (to_int(r, name, e, (int *)out + i)) return -1;
         } else if (kind == 'b') {
-            if (!cJSON_IsBool(e)) return gv_config_bad(r->src, full_key(r, name), "entry %d: expected true or false, got %s", i, json_type(e));
+            if (!cJSON_IsBool(e)) return gv_config_bad(r->src, full_key(r, name), "entry %d: expected true or false, got %s", i, gv_json_type(e));
             ((int *)out)[i] = cJSON_IsTrue(e) ? 1 : 0;
         } else {
-            if (!cJSON_IsNumber(e)) return gv_config_bad(r->src, full_key(r, name), "entry %d: expected a number, got %s", i, json_type(e));
+            if (!cJSON_IsNumber(e)) return gv_config_bad(r->src, full_key(r, name), "entry %d: expected a number, got %s", i, gv_json_type(e));
             ((double *)out)[i] = e->valuedouble;
         }
     }
@@ -209,19 +198,19 @@ static int parse_lora(reader *r, const cJSON *o, gv_lora_config *l)
     l->alpha = l->rank; /* default: alpha = rank, scale 1 as PEFT in GaussVid (reference 1.5) */
     if (alpha && get_double(r, o, "alpha", 1, &l->alpha)) return -1;
     if (targets) {
-        if (!cJSON_IsArray(targets)) return gv_config_bad(r->src, "lora.targets", "expected an array, got %s", json_type(targets));
+        if (!cJSON_IsArray(targets)) return gv_config_bad(r->src, "lora.targets", "expected an array, got %s", gv_json_type(targets));
         int n = cJSON_GetArraySize(targets);
         if (n > GV_LORA_MAX_TARGETS) return gv_config_bad(r->src, "lora.targets", "has %d entries, at most %d allowed", n, GV_LORA_MAX_TARGETS);
         l->n_targets = 0;
         for (const cJSON *e = targets->child; e; e = e->next) {
-            if (!cJSON_IsString(e)) return gv_config_bad(r->src, "lora.targets", "entry %d: expected a string, got %s", l->n_targets, json_type(e));
+            if (!cJSON_IsString(e)) return gv_config_bad(r->src, "lora.targets", "entry %d: expected a string, got %s", l->n_targets, gv_json_type(e));
             if (!gv_lora_target_known(e->valuestring))
                 return gv_config_bad(r->src, "lora.targets", "\"%.40s\" is not a linear layer of a block", e->valuestring);
             snprintf(l->targets[l->n_targets++], GV_LORA_TARGET_MAX, "%s", e->valuestring);
         }
     }
     if (modules) {
-        if (!cJSON_IsArray(modules)) return gv_config_bad(r->src, "lora.modules", "expected an array, got %s", json_type(modules));
+        if (!cJSON_IsArray(modules)) return gv_config_bad(r->src, "lora.modules", "expected an array, got %s", gv_json_type(modules));
         l->blocks = l->vace_blocks = 0;
         for (const cJSON *e = modules->child; e; e = e->next) {
             int *flag = !cJSON_IsString(e) ? NULL : !strcmp(e->valuestring, "blocks") ? &l->blocks
@@ -259,7 +248,7 @@ static int parse_variant(reader *r, const cJSON *o, gv_variant_config *v)
 static int section(reader *top, const cJSON *root, const char *name, int required, const cJSON **out)
 {
     if (lookup(top, root, name, required, out)) return -1;
-    if (*out && !cJSON_IsObject(*out)) return gv_config_bad(top->src, name, "expected an object, got %s", json_type(*out));
+    if (*out && !cJSON_IsObject(*out)) return gv_config_bad(top->src, name, "expected an object, got %s", gv_json_type(*out));
     return 0;
 }
 
@@ -281,7 +270,7 @@ static int parse_root(gv_model_config *c, const cJSON *root, const char *src)
     reader r = {src, "", ""};
     const cJSON *dit, *vae, *camera, *lora, *variant;
     const char *name = NULL;
-    if (!cJSON_IsObject(root)) return gv_fail("%s: a model config must be a JSON object, got %s", src, json_type(root));
+    if (!cJSON_IsObject(root)) return gv_fail("%s: a model config must be a JSON object, got %s", src, gv_json_type(root));
     if (check_keys(&r, root, known) || get_string(&r, root, "name", &name) || section(&r, root, "dit", 1, &dit) ||
         section(&r, root, "vae", 1, &vae) || section(&r, root, "camera", 0, &camera) ||
         section(&r, root, "lora", 0, &lora) || section(&r, root, "variant", 0, &variant))

@@ -4,6 +4,7 @@
 #include "model/dit_internal.h"
 #include "gaussvid/core.h"
 #include "gaussvid/safetensors.h"
+#include "gaussvid/weight_files.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -40,7 +41,7 @@ int gv_dit_load(gv_dit *m, const char *const *paths, int n_paths, unsigned parts
     gv_st_file *files = calloc((size_t)n_paths, sizeof *files);
     if (!files) return gv_fail("out of memory for %d weight files", n_paths);
     for (int i = 0; i < n_paths; i++)
-        if (gv_st_open(&files[i], paths[i]) != 0) {
+        if (gv_weights_open(&files[i], paths[i]) != 0) {
             close_all(files, i);
             return -1;
         }

@@ -10,6 +10,8 @@
 #include "gaussvid/core.h"
 #include "gaussvid/safetensors.h"
 #include "gaussvid/vae.h"
+#include "gaussvid/weight_names.h"
+#include "gaussvid/weight_files.h"
 
 enum { LISTED = 4 }; /* names shown per kind of problem */
 
@@ -65,7 +67,7 @@ static int load_stats(gv_vae *v, const gv_st_file *f)
 int gv_vae_load(gv_vae *v, const char *path, int allow_other)
 {
     gv_st_file f;
-    if (gv_st_open(&f, path)) return -1;
+    if (gv_weights_open(&f, path)) return -1;
     problem_list missing = {0, ""}, unexpected = {0, ""}, shaped = {0, ""};
     char have[64], want[64];
     for (int i = 0; i < v->params.n; i++) {
@@ -147,6 +149,8 @@ int gv_vae_file_config(const char *path, gv_model_config *c)
     const char *json = gv_st_metadata(&f, "config");
     int rc = json ? gv_model_config_parse(c, json, path)
                   : gv_fail("%s: no \"config\" metadata (pass the model config with --config)", path);
+    /* the file's own config must fit in it before anyone builds that VAE (issue 25) */
+    if (rc == 0) rc = gv_weights_fit(c, GV_PART_VAE, f.data_size, path);
     gv_st_close(&f);
     return rc;
 }

@@ -9,6 +9,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/safetensors.h"
 #include "gaussvid/vae.h"
+#include "gaussvid/weight_files.h"
 
 /* Loads the VAE from the first weight file that holds its tensors (others may hold the DiT). */
 static int load_vae(gv_vae *v, const gv_model_config *c, const char *const *weights, int n_weights)
@@ -16,7 +17,7 @@ static int load_vae(gv_vae *v, const gv_model_config *c, const char *const *weig
     if (gv_vae_init(v, c, 0, 0)) return -1;
     for (int i = 0; i < n_weights; i++) {
         gv_st_file f;
-        if (gv_st_open(&f, weights[i])) {
+        if (gv_weights_open(&f, weights[i])) {
             gv_vae_free(v);
             return -1;
         }

@@ -66,6 +66,12 @@ void gv_gemm(int M, int N, int K, const float *A, int lda, const float *B, int l
     cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, M, N, K, 1.0f, A, lda, B, ldb, 0.0f, C, ldc);
 }
 
+void gv_gemm_nt(int M, int N, int K, const float *A, int lda, const float *B, int ldb, float *C,
+                int ldc)
+{
+    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, M, N, K, 1.0f, A, lda, B, ldb, 0.0f, C, ldc);
+}
+
 gv_tensor *gv_matmul(gv_graph *g, gv_tensor *a, gv_tensor *b, int trans_a, int trans_b)
 {
     if (!a || !b) return NULL;

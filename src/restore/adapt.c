@@ -71,18 +71,13 @@ static int load_scene(const gv_adapt_options *o, const gv_model_config *cfg, gv_
 }
 
 typedef struct {
-    gv_dit m;
-    gv_vae vae;
-    gv_model_config cfg;
-    gv_train_state base_state;
-    char vae_path[4200];
+    gv_restorer base;                /* the base: its network (adapters trained here), VAE, state */
     gv_latent_set train, held;
 } adapt_run;
 
 static void run_free(adapt_run *x)
 {
-    gv_dit_free(&x->m);
-    gv_vae_free(&x->vae);
+    gv_restorer_free(&x->base);
     gv_latent_set_free(&x->train);
     gv_latent_set_free(&x->held);
 }
@@ -92,12 +87,8 @@ static void run_free(adapt_run *x)
 static int load_model_and_data(const gv_adapt_options *o, const char *pairs, adapt_run *x)
 {
     gv_latent_set all;
-    if (gv_checkpoint_read_info(o->base, &x->cfg, &x->base_state) ||
-        gv_checkpoint_load(o->base, &x->m, &x->vae, &x->cfg) ||
-        gv_checkpoint_vae_path(o->base, &x->base_state, x->vae_path, sizeof x->vae_path) ||
-        gv_dit_set_train_mode(&x->m, GV_DIT_FINETUNE))
-        return -1;
-    if (gv_latent_set_load(pairs, "train", x->vae_path, &x->vae, &x->cfg, &all)) return -1;
+    if (gv_restorer_load(o->base, &x->base) || gv_dit_set_train_mode(&x->base.net, GV_DIT_FINETUNE)) return -1;
+    if (gv_latent_set_load(pairs, "train", x->base.vae_path, &x->base.vae, &x->base.cfg, &all)) return -1;
     return gv_latent_set_hold_back(&all, o->hold_every, &x->train, &x->held);
 }
 
@@ -117,7 +108,7 @@ static int write_checkpoint(const gv_adapt_options *o, const char *work, adapt_r
     gv_scene_adaptation *a = &r->adaptation;
     snprintf(final, sizeof final, "%s/train.safetensors", work);
     if (scene_state(o, final, &s) || gv_file_checksum(o->base, a->base_checksum, sizeof a->base_checksum)) return -1;
-    return gv_scene_checkpoint_save(o->out, &x->m, &x->cfg, &s, a);
+    return gv_scene_checkpoint_save(o->out, &x->base.net, &x->base.cfg, &s, a);
 }
 
 static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x, gv_adapt_report *r)
@@ -126,8 +117,8 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
     char pairs[4200], path[4300];
     snprintf(pairs, sizeof pairs, "%s/pairs", work);
     gv_scene scene;
-    if (gv_checkpoint_read_info(o->base, &x->cfg, &x->base_state) || gv_mkdirs(work) ||
-        load_scene(o, &x->cfg, &scene))
+    if (gv_checkpoint_read_info(o->base, &x->base.cfg, &x->base.state) || gv_mkdirs(work) ||
+        load_scene(o, &x->base.cfg, &scene))
         return -1;
     double t = gv_now();
     gv_internal_options po = {o->interval, o->iters, o->train.seed, o->simulator, pairs};
@@ -150,21 +141,21 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
     gv_train_state meta;
     memset(&meta, 0, sizeof meta);
     snprintf(meta.kind, sizeof meta.kind, "finetune");
-    snprintf(meta.vae, sizeof meta.vae, "%s", x->vae_path);
-    gv_checkpoint_vae_checksum(&x->vae, meta.vae_checksum, sizeof meta.vae_checksum);
+    snprintf(meta.vae, sizeof meta.vae, "%s", x->base.vae_path);
+    gv_checkpoint_vae_checksum(&x->base.vae, meta.vae_checksum, sizeof meta.vae_checksum);
     snprintf(meta.base, sizeof meta.base, "%s", o->base);
     snprintf(meta.clips, sizeof meta.clips, "%s", pairs);
     gv_train_data_text(&x->train, "train", meta.data, sizeof meta.data);
     gv_info("adapt: %s n=%d: %d internal clips for training, %d held back; %ld steps of %d clips at lr %g (%s)",
             a->scene, o->interval, x->train.count, x->held.count, to.steps, to.batch, to.lr,
             gv_lr_kind_name(to.lr_schedule));
-    rc = gv_adapt_train(&x->m, &x->cfg, &x->train, &x->held, &to, &meta, best_path, &r->best, &r->train);
+    rc = gv_adapt_train(&x->base.net, &x->base.cfg, &x->train, &x->held, &to, &meta, best_path, &r->best, &r->train);
     if (rc) return rc < 0 ? -1 : 0; /* 1: stopped before the last step */
     a->seconds_train = gv_now() - t, t = gv_now();
 
-    if (gv_dit_set_train_mode(&x->m, GV_DIT_FROZEN)) return -1;
+    if (gv_dit_set_train_mode(&x->base.net, GV_DIT_FROZEN)) return -1;
     gv_info("adapt: gate: restoring the %d held-back clips with the adapters of step %ld", x->held.count, r->best.step);
-    if (gv_adapt_measure(&x->m, &x->vae, pairs, &x->held, &o->sampler, o->compose, a)) return -1;
+    if (gv_adapt_measure(&x->base.net, &x->base.vae, pairs, &x->held, &o->sampler, o->compose, a)) return -1;
     a->seconds_gate = gv_now() - t;
     a->interval = o->interval, a->iters = o->iters;
     a->train_clips = x->train.count, a->held_back = x->held.count;

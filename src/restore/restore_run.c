@@ -56,22 +56,22 @@ static int keep_one(const gv_clip *clip, const char *name, const gv_restore_opti
 }
 
 /* One clip: latents l (NULL: prepared here), restored, written, handed to o->each. */
-static int restore_one(gv_dit *m, gv_vae *vae, const gv_clip *clip, const char *name, const gv_clip_latents *given,
+static int restore_one(gv_restorer *r, const gv_clip *clip, const char *name, const gv_clip_latents *given,
                        const gv_restore_options *o, char *note, size_t note_size)
 {
     gv_clip_latents own;
     const gv_clip_latents *l = given;
     if (o->keep_renders) return keep_one(clip, name, o, note, note_size);
     if (!l) {
-        if (gv_clip_latents_prepare(vae, &m->cfg, clip, &own)) return -1;
+        if (gv_clip_latents_prepare(&r->vae, &r->net.cfg, clip, &own)) return -1;
         l = &own;
     }
     const gv_clip_info *info = &clip->info;
     float *z = malloc((size_t)gv_clip_latents_z_count(l) * sizeof *z);
     uint8_t *frames = malloc((size_t)GV_CLIP_FRAMES * info->width * info->height * 3);
     int rc = z && frames ? 0 : gv_fail("restore: out of memory");
-    if (rc == 0) rc = gv_restore_latent(m, l, &o->sampler, gv_restore_clip_seed(o->sampler.seed, name), z);
-    if (rc == 0) rc = gv_restore_compose(vae, clip, l, z, o->compose, frames);
+    if (rc == 0) rc = gv_restore_latent(&r->net, l, &o->sampler, gv_restore_clip_seed(o->sampler.seed, name), z);
+    if (rc == 0) rc = gv_restore_compose(&r->vae, clip, l, z, o->compose, frames);
     if (rc == 0 && o->out_dir) {
         char stem[512];
         clip_stem(name, stem, sizeof stem);
@@ -89,7 +89,7 @@ static void progress_note(gv_progress *bar, long done, const char *note)
     else gv_progress_update(bar, done, NULL);
 }
 
-int gv_restore_files(gv_dit *m, gv_vae *vae, const char *const *paths, int n_paths, const gv_restore_options *o)
+int gv_restore_files(gv_restorer *r, const char *const *paths, int n_paths, const gv_restore_options *o)
 {
     if (!o->keep_renders && gv_sampler_check(&o->sampler)) return -1;
     gv_progress bar;
@@ -104,7 +104,7 @@ int gv_restore_files(gv_dit *m, gv_vae *vae, const char *const *paths, int n_pat
         }
         char name[512];
         clip_stem(paths[i], name, sizeof name);
-        rc = restore_one(m, vae, &clip, name, NULL, o, note, sizeof note);
+        rc = restore_one(r, &clip, name, NULL, o, note, sizeof note);
         gv_clip_free(&clip);
         if (rc) gv_fail_context("%s", paths[i]);
         progress_note(&bar, i + 1, note);
@@ -113,7 +113,7 @@ int gv_restore_files(gv_dit *m, gv_vae *vae, const char *const *paths, int n_pat
     return rc;
 }
 
-int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_restore_options *given)
+int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore_options *given)
 {
     gv_restore_options keep = *given;
     const gv_restore_options *o = &keep;
@@ -125,21 +125,21 @@ int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv
     int found = 0, rc = 0;
     gv_manifest_init(&man, NULL);
     if (o->use_cache) {
-        rc = gv_latent_set_load(dataset_dir, o->split, o->vae_path, vae, &m->cfg, &set);
+        rc = gv_latent_set_load(dataset_dir, o->split, r->vae_path, &r->vae, &r->net.cfg, &set);
     } else {
         rc = gv_manifest_read(dataset_dir, &man, &found);
         if (rc == 0 && !found) rc = gv_fail("%s: no manifest.json (not a dataset folder)", dataset_dir);
     }
     int total = 0;
     for (int i = 0; rc == 0 && i < (o->use_cache ? set.count : man.n_clips); i++)
-        total += o->use_cache || !o->split || !strcmp(man.clips[i].split, o->split);
+        total += o->use_cache || !o->split || !strcmp(man.clips[i].id.split, o->split);
     if (rc == 0 && total == 0) rc = gv_fail("%s: the manifest lists no %s clips", dataset_dir, o->split ? o->split : "");
     gv_progress bar;
     gv_progress_start(&bar, "restore", total);
     int done = 0;
     char note[64] = ""; /* o->each's last note */
     for (int i = 0; rc == 0 && i < (o->use_cache ? set.count : man.n_clips); i++) {
-        if (!o->use_cache && o->split && strcmp(man.clips[i].split, o->split)) continue;
+        if (!o->use_cache && o->split && strcmp(man.clips[i].id.split, o->split)) continue;
         const char *name = o->use_cache ? set.names[i] : man.clips[i].file;
         char path[4096];
         gv_clip clip;
@@ -149,7 +149,7 @@ int gv_restore_dataset(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv
         }
         char stem[512];
         clip_stem(name, stem, sizeof stem);
-        rc = restore_one(m, vae, &clip, stem, o->use_cache ? &set.clips[i] : NULL, o, note, sizeof note);
+        rc = restore_one(r, &clip, stem, o->use_cache ? &set.clips[i] : NULL, o, note, sizeof note);
         gv_clip_free(&clip);
         if (rc) gv_fail_context("%s", path);
         progress_note(&bar, ++done, note);

@@ -3,6 +3,11 @@
 #include "gaussvid/core.h"
 #include "gaussvid/scene.h"
 
+int gv_scene_is_train(int frame, int interval)
+{
+    return frame % interval == 0;
+}
+
 int gv_scene_split(int n_frames, int interval, int *train, int *n_train, int *held_out,
                    int *n_held_out)
 {
@@ -15,7 +20,7 @@ int gv_scene_split(int n_frames, int interval, int *train, int *n_train, int *he
                        "are needed (use an interval of at most %d)", interval, trained, n_frames,
                        n_frames - 1);
     for (int i = 0; i < n_frames; i++) {
-        if (i % interval == 0) train[(*n_train)++] = i;
+        if (gv_scene_is_train(i, interval)) train[(*n_train)++] = i;
         else held_out[(*n_held_out)++] = i;
     }
     return 0;

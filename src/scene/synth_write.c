@@ -173,8 +173,11 @@ int gv_synth_write(const gv_synth_params *p, const char *dir_in)
     size_t len = strlen(dir_in);
     while (len > 1 && dir_in[len - 1] == '/') len--;
     if (len == 0 || len >= sizeof dir - 32) return gv_fail("scene synth: bad output folder '%s'", dir_in);
-    memcpy(dir, dir_in, len);
-    dir[len] = '\0';
+    memcpy(tmp, dir_in, len);
+    tmp[len] = '\0';
+    /* A link to a folder: the scene replaces the folder it names, never the link. */
+    if (gv_path_follow_links(tmp, dir, sizeof dir - 32)) return -1;
+    for (len = strlen(dir); len > 1 && dir[len - 1] == '/'; len--) dir[len - 1] = '\0';
     if (check_destination(dir)) return -1;
     snprintf(tmp, sizeof tmp, "%s", dir);
     char *slash = strrchr(tmp, '/');

@@ -61,39 +61,13 @@ void gv_splat_densify_accumulate(gv_splat_densify_stats *s, int n_visible, const
 
 /* ---- rows of a set of Gaussians ------------------------------------------------------- */
 
-static int sh_width(const gv_gaussians *g)
-{
-    return 3 * gv_sh_coefficient_count(g->sh_degree);
-}
-
-static void copy_row(gv_gaussians *g, int dst, int src)
-{
-    int w = sh_width(g);
-    memmove(g->means + 3 * (size_t)dst, g->means + 3 * (size_t)src, 3 * sizeof(float));
-    memmove(g->sh + (size_t)w * dst, g->sh + (size_t)w * src, (size_t)w * sizeof(float));
-    g->opacities[dst] = g->opacities[src];
-    memmove(g->scales + 3 * (size_t)dst, g->scales + 3 * (size_t)src, 3 * sizeof(float));
-    memmove(g->rotations + 4 * (size_t)dst, g->rotations + 4 * (size_t)src, 4 * sizeof(float));
-}
-
-static void zero_rows(gv_gaussians *g, int from, int to)
-{
-    if (to <= from) return;
-    size_t n = (size_t)(to - from), w = (size_t)sh_width(g);
-    memset(g->means + 3 * (size_t)from, 0, 3 * n * sizeof(float));
-    memset(g->sh + w * from, 0, w * n * sizeof(float));
-    memset(g->opacities + from, 0, n * sizeof(float));
-    memset(g->scales + 3 * (size_t)from, 0, 3 * n * sizeof(float));
-    memset(g->rotations + 4 * (size_t)from, 0, 4 * n * sizeof(float));
-}
-
 /* Keeps the rows with keep[i] != 0, in order; returns the new count. */
 static int compact(gv_gaussians *g, const unsigned char *keep)
 {
     int n = 0;
     for (int i = 0; i < g->n; i++)
         if (keep[i]) {
-            if (n != i) copy_row(g, n, i);
+            if (n != i) gv_gaussians_copy_row(g, n, i);
             n++;
         }
     g->n = n;
@@ -135,7 +109,7 @@ static void make_child(gv_gaussians *g, int dst, int src, gv_rng *rng)
     double eps[3], R[9];
     for (int a = 0; a < 3; a++)
         eps[a] = gv_rng_normal(rng) * exp((double)g->scales[3 * (size_t)src + a]);
-    copy_row(g, dst, src);
+    gv_gaussians_copy_row(g, dst, src);
     rotation_of(g->rotations + 4 * (size_t)src, R);
     for (int a = 0; a < 3; a++) {
         double d = R[3 * a] * eps[0] + R[3 * a + 1] * eps[1] + R[3 * a + 2] * eps[2];
@@ -177,12 +151,12 @@ int gv_splat_densify_and_prune(gv_gaussians *g, gv_splat_adam *adam,
     }
     int row = n0;
     for (int i = 0; i < n0; i++)
-        if (clone[i]) copy_row(g, row++, i);
+        if (clone[i]) gv_gaussians_copy_row(g, row++, i);
     for (int c = 0; c < SPLIT_CHILDREN; c++)
         for (int i = 0; i < n0; i++)
             if (split[i]) make_child(g, row++, i, rng);
     g->n = n2;
-    zero_rows(&adam->m, n0, n2), zero_rows(&adam->v, n0, n2);
+    gv_gaussians_zero_rows(&adam->m, n0, n2), gv_gaussians_zero_rows(&adam->v, n0, n2);
     adam->m.n = adam->v.n = n2;
 
     /* Prune: split parents, transparent Gaussians, and (after the first opacity reset)

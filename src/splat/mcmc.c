@@ -73,31 +73,6 @@ static void draw(const double *cdf, const int *items, int n_items, int n, gv_rng
     }
 }
 
-static int sh_width(const gv_gaussians *g)
-{
-    return 3 * gv_sh_coefficient_count(g->sh_degree);
-}
-
-static void copy_row(gv_gaussians *g, int dst, int src)
-{
-    int w = sh_width(g);
-    memcpy(g->means + 3 * (size_t)dst, g->means + 3 * (size_t)src, 3 * sizeof(float));
-    memcpy(g->sh + (size_t)w * dst, g->sh + (size_t)w * src, (size_t)w * sizeof(float));
-    g->opacities[dst] = g->opacities[src];
-    memcpy(g->scales + 3 * (size_t)dst, g->scales + 3 * (size_t)src, 3 * sizeof(float));
-    memcpy(g->rotations + 4 * (size_t)dst, g->rotations + 4 * (size_t)src, 4 * sizeof(float));
-}
-
-static void zero_row(gv_gaussians *g, int i)
-{
-    int w = sh_width(g);
-    memset(g->means + 3 * (size_t)i, 0, 3 * sizeof(float));
-    memset(g->sh + (size_t)w * i, 0, (size_t)w * sizeof(float));
-    g->opacities[i] = 0;
-    memset(g->scales + 3 * (size_t)i, 0, 3 * sizeof(float));
-    memset(g->rotations + 4 * (size_t)i, 0, 4 * sizeof(float));
-}
-
 /* Gives each drawn source its share (count[s] copies besides itself), then copies the
  * sources into the destination rows; every touched row's moments start from zero. */
 static void share_and_copy(gv_gaussians *g, gv_splat_adam *adam, const int *sources,
@@ -112,12 +87,13 @@ static void share_and_copy(gv_gaussians *g, gv_splat_adam *adam, const int *sour
         o = fmax(o, 1e-7);
         g->opacities[s] = (float)log(o / (1.0 - o));
         for (int a = 0; a < 3; a++) g->scales[3 * (size_t)s + a] += (float)log(factor);
-        zero_row(&adam->m, s), zero_row(&adam->v, s);
+        gv_gaussians_zero_rows(&adam->m, s, s + 1), gv_gaussians_zero_rows(&adam->v, s, s + 1);
         count[s] = 0;
     }
     for (int j = 0; j < n; j++) {
-        copy_row(g, destinations[j], sources[j]);
-        zero_row(&adam->m, destinations[j]), zero_row(&adam->v, destinations[j]);
+        int d = destinations[j];
+        gv_gaussians_copy_row(g, d, sources[j]);
+        gv_gaussians_zero_rows(&adam->m, d, d + 1), gv_gaussians_zero_rows(&adam->v, d, d + 1);
     }
 }
 

@@ -50,7 +50,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
                                         .opacity_reset_interval = 3000};
     opt->densify = (gv_splat_densify_params){.grad_threshold = 0.0002, .percent_dense = 0.01,
                                              .min_opacity = 0.005};
-    opt->densify_mode = GV_DENSIFY_MCMC;
+    opt->densify_mode = GV_DENSIFY_REFERENCE;
     gv_splat_mcmc_defaults(&opt->mcmc);
     opt->gaussians_per_pixel = 0.02;
 }

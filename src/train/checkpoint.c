@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "gaussvid/condition.h"
 #include "gaussvid/core.h"
@@ -65,6 +66,12 @@ int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state 
     if (gv_model_config_parse(cfg, json, f->path)) return -1;
     memset(s, 0, sizeof *s);
     meta_text(f, "kind", s->kind, sizeof s->kind);
+    /* every checkpoint but a scene checkpoint holds the DiT and VACE: refuse a config the file
+     * cannot hold before anyone builds its network (issue 25). A scene checkpoint holds only
+     * adapters; its base is checked when it loads. */
+    if (strcmp(s->kind, GV_SCENE_CHECKPOINT_KIND) &&
+        gv_weights_fit(cfg, GV_PART_DIT | GV_PART_VACE, f->data_size, f->path))
+        return -1;
     if (strcmp(s->kind, "base") && strcmp(s->kind, "finetune") && strcmp(s->kind, GV_SCENE_CHECKPOINT_KIND))
         return gv_fail("%s: metadata kind is \"%s\", expected base, finetune or scene", f->path, s->kind);
     const char *seed_text = gv_st_metadata(f, "seed");
@@ -139,55 +146,76 @@ static int load_network(const gv_st_file *f, gv_dit *m, const gv_train_state *s)
     return 0;
 }
 
-int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out, size_t size)
+/* The VAE file named vae (metadata "vae" of ckpt): as written, else the same relative path or
+ * file name in the checkpoint's folder, into out. 1 when found, else 0. */
+static int find_vae(const char *ckpt, const char *vae, char *out, size_t size)
 {
-    const char *vae = s->vae;
-    if (!*vae) return gv_fail("%s: metadata vae is missing and the file holds no VAE tensors", ckpt);
     snprintf(out, size, "%s", vae);
-    if (gv_file_exists(out)) return 0;
+    if (*vae && gv_file_exists(out)) return 1;
     char dir[4096];
     snprintf(dir, sizeof dir, "%s", ckpt);
     char *slash = strrchr(dir, '/');
     if (slash) *slash = '\0';
     else snprintf(dir, sizeof dir, ".");
     const char *base = strrchr(vae, '/');
-    if (vae[0] != '/' && gv_path_join(out, size, dir, vae) == 0 && gv_file_exists(out)) return 0;
-    if (base && gv_path_join(out, size, dir, base + 1) == 0 && gv_file_exists(out)) return 0;
-    return gv_fail("%s: the VAE it names, %s, is not found (neither as written nor beside the checkpoint)", ckpt, vae);
+    if (*vae && vae[0] != '/' && gv_path_join(out, size, dir, vae) == 0 && gv_file_exists(out)) return 1;
+    return base && gv_path_join(out, size, dir, base + 1) == 0 && gv_file_exists(out);
 }
 
-static int load_vae(const gv_st_file *f, const gv_model_config *cfg, const gv_train_state *s, gv_vae *vae)
+int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out, size_t size)
 {
-    if (gv_vae_init(vae, cfg, 0, 0)) return -1;
-    if (vae->params.n > 0 && gv_st_find(f, vae->params.items[0]->t.name)) return gv_vae_load(vae, f->path, 1);
-    char path[4200], sum[64];
-    if (gv_checkpoint_vae_path(f->path, s, path, sizeof path) || gv_vae_load(vae, path, 0)) return -1;
-    gv_checkpoint_vae_checksum(vae, sum, sizeof sum);
-    if (*s->vae_checksum && strcmp(sum, s->vae_checksum))
-        return gv_fail("%s: the VAE %s is not the one it was trained with (checksum %s, expected %s)", f->path, path, sum,
-                       s->vae_checksum);
+    if (!*s->vae) return gv_fail("%s: metadata vae is missing and the file holds no VAE tensors", ckpt);
+    if (find_vae(ckpt, s->vae, out, size)) return 0;
+    return gv_fail("%s: the VAE it names, %s, is not found (neither as written nor beside the checkpoint)", ckpt, s->vae);
+}
+
+/* The VAE: its tensors in the file (r->vae_path is then the file the metadata names if there is
+ * one, else the checkpoint), or else the file the metadata names, checked by its checksum. */
+static int load_vae(const gv_st_file *f, gv_restorer *r)
+{
+    /* the VAE's tensors are in the checkpoint or in the file it names: one must hold them */
+    char sum[64], named[4200];
+    struct stat st;
+    uint64_t bytes = f->data_size;
+    if (find_vae(f->path, r->state.vae, named, sizeof named) && stat(named, &st) == 0 &&
+        (uint64_t)st.st_size > bytes)
+        bytes = (uint64_t)st.st_size;
+    if (gv_weights_fit(&r->cfg, GV_PART_VAE, bytes, f->path)) return -1;
+    if (gv_vae_init(&r->vae, &r->cfg, 0, 0)) return -1;
+    if (r->vae.params.n > 0 && gv_st_find(f, r->vae.params.items[0]->t.name)) {
+        if (!find_vae(f->path, r->state.vae, r->vae_path, sizeof r->vae_path))
+            snprintf(r->vae_path, sizeof r->vae_path, "%s", f->path);
+        return gv_vae_load(&r->vae, f->path, 1);
+    }
+    if (gv_checkpoint_vae_path(f->path, &r->state, r->vae_path, sizeof r->vae_path) || gv_vae_load(&r->vae, r->vae_path, 0))
+        return -1;
+    gv_checkpoint_vae_checksum(&r->vae, sum, sizeof sum);
+    if (*r->state.vae_checksum && strcmp(sum, r->state.vae_checksum))
+        return gv_fail("%s: the VAE %s is not the one it was trained with (checksum %s, expected %s)", f->path, r->vae_path,
+                       sum, r->state.vae_checksum);
     return 0;
 }
 
-int gv_checkpoint_load(const char *path, gv_dit *m, gv_vae *vae, gv_model_config *cfg)
+int gv_restorer_load(const char *path, gv_restorer *r)
 {
     gv_st_file f;
-    gv_train_state s;
-    memset(m, 0, sizeof *m);
-    if (vae) memset(vae, 0, sizeof *vae);
+    memset(r, 0, sizeof *r);
     if (gv_ckpt_open(&f, path)) return -1;
-    int rc = gv_ckpt_read_meta(&f, cfg, &s);
-    if (rc == 0 && !strcmp(s.kind, GV_SCENE_CHECKPOINT_KIND)) { /* adapters over the base it names */
+    int rc = gv_ckpt_read_meta(&f, &r->cfg, &r->state);
+    if (rc == 0 && !strcmp(r->state.kind, GV_SCENE_CHECKPOINT_KIND)) { /* adapters over the base it names */
         gv_st_close(&f);
-        return gv_scene_checkpoint_load(path, m, vae, cfg);
+        return gv_scene_checkpoint_load(path, r);
     }
-    if (rc == 0) rc = gv_dit_init(m, cfg, 0);
-    if (rc == 0) rc = load_network(&f, m, &s);
-    if (rc == 0 && vae) rc = load_vae(&f, cfg, &s, vae);
+    if (rc == 0) rc = gv_dit_init(&r->net, &r->cfg, 0);
+    if (rc == 0) rc = load_network(&f, &r->net, &r->state);
+    if (rc == 0) rc = load_vae(&f, r);
     gv_st_close(&f);
-    if (rc) {
-        gv_dit_free(m);
-        if (vae) gv_vae_free(vae);
-    }
+    if (rc) gv_restorer_free(r);
     return rc;
+}
+
+void gv_restorer_free(gv_restorer *r)
+{
+    gv_dit_free(&r->net);
+    gv_vae_free(&r->vae);
 }

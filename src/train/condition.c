@@ -172,9 +172,9 @@ int gv_clip_latents_shape(const gv_vae *vae, const gv_model_config *cfg, const g
     memset(l, 0, sizeof *l);
     int per_frame = cfg->variant.per_frame, frames = per_frame ? 1 : GV_CLIP_FRAMES;
     if (check_sizes(vae, cfg, info, frames))
-        return gv_fail_context("clip %s n%d frames %d-%d", info->scene, info->n, info->frames[0],
+        return gv_fail_context("clip %s n%d frames %d-%d", info->id.scene, info->id.n, info->frames[0],
                                info->frames[GV_CLIP_FRAMES - 1]);
-    l->n = info->n;
+    l->n = info->id.n;
     l->frames = GV_CLIP_FRAMES, l->height = info->height, l->width = info->width;
     l->batch = per_frame ? GV_CLIP_FRAMES - 2 : 1;
     l->z_dim = vae->cfg.z_dim;
@@ -244,7 +244,7 @@ int gv_clip_latents_prepare(gv_vae *vae, const gv_model_config *cfg, const gv_cl
     if (rc == 0 && out->plucker) rc = gv_clip_latents_plucker(clip, vae->cfg.temporal_factor, out);
     if (rc) {
         gv_clip_latents_free(out);
-        return gv_fail_context("clip %s n%d frames %d-%d", info->scene, info->n, info->frames[0],
+        return gv_fail_context("clip %s n%d frames %d-%d", info->id.scene, info->id.n, info->frames[0],
                                info->frames[GV_CLIP_FRAMES - 1]);
     }
     return 0;

@@ -200,13 +200,13 @@ static int select_clips(const char *dir, const char *split, const gv_manifest *m
     if (split && strcmp(split, "train") && strcmp(split, "eval"))
         return gv_fail("split '%s': expected train or eval", split);
     int n = 0;
-    for (int i = 0; i < m->n_clips; i++) n += !split || !strcmp(m->clips[i].split, split);
+    for (int i = 0; i < m->n_clips; i++) n += !split || !strcmp(m->clips[i].id.split, split);
     if (n == 0) return gv_fail("%s: the manifest lists no %s clips", dir, split ? split : "");
     s->clips = calloc((size_t)n, sizeof *s->clips);
     s->names = calloc((size_t)n, sizeof *s->names);
     if (!s->clips || !s->names) return gv_fail("%s: out of memory for %d clips", dir, n);
     for (int i = 0; i < m->n_clips; i++) {
-        if (split && strcmp(m->clips[i].split, split)) continue;
+        if (split && strcmp(m->clips[i].id.split, split)) continue;
         if (!(s->names[s->count] = strdup(m->clips[i].file))) return gv_fail("%s: out of memory", dir);
         s->count++;
     }

@@ -206,31 +206,28 @@ int gv_scene_checkpoint_base(const char *path, const gv_train_state *state, cons
     return 0;
 }
 
-int gv_scene_checkpoint_load(const char *path, gv_dit *m, gv_vae *vae, gv_model_config *cfg)
+int gv_scene_checkpoint_load(const char *path, gv_restorer *r)
 {
     gv_st_file f;
     gv_train_state s, base_state;
     gv_scene_adaptation a;
-    gv_model_config base_cfg;
+    gv_model_config cfg, base_cfg;
     char base[4200];
-    memset(m, 0, sizeof *m);
-    if (vae) memset(vae, 0, sizeof *vae);
-    if (open_scene(path, &f, cfg, &s, &a)) return -1;
+    memset(r, 0, sizeof *r);
+    if (open_scene(path, &f, &cfg, &s, &a)) return -1;
     int rc = gv_scene_checkpoint_base(path, &s, &a, base, sizeof base);
     if (rc == 0) rc = gv_checkpoint_read_info(base, &base_cfg, &base_state);
     if (rc == 0 && !strcmp(base_state.kind, GV_SCENE_CHECKPOINT_KIND))
         rc = gv_fail("%s: its base %s is itself a scene checkpoint", path, base);
-    if (rc == 0) rc = gv_checkpoint_load(base, m, vae, &base_cfg);
+    if (rc == 0) rc = gv_restorer_load(base, r); /* the base first: network, VAE, vae_path */
     if (rc == 0) {
-        char *x = gv_model_config_to_json(cfg), *y = gv_model_config_to_json(&base_cfg);
+        char *x = gv_model_config_to_json(&cfg), *y = gv_model_config_to_json(&r->cfg);
         if (!x || !y || strcmp(x, y)) rc = gv_fail("%s: written for another model config than its base %s", path, base);
         free(x), free(y);
     }
-    if (rc == 0) rc = read_adapters(&f, m);
+    if (rc == 0) rc = read_adapters(&f, &r->net);
     gv_st_close(&f);
-    if (rc) {
-        gv_dit_free(m);
-        if (vae) gv_vae_free(vae);
-    }
+    if (rc == 0) r->cfg = cfg, r->state = s; /* the scene checkpoint's own record (kind "scene") */
+    if (rc) gv_restorer_free(r);
     return rc;
 }

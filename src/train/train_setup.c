@@ -1,5 +1,6 @@
 /* Setting up a training run: the VAE whose latents the network learns (its config must be the
- * run's, and its latent statistics become part of the run's config). */
+ * run's, and its latent statistics become part of the run's config), the clips, and the
+ * network (pretrain, train and bench train set it up here). */
 #include <stdio.h>
 #include <string.h>
 
@@ -72,4 +73,22 @@ int gv_train_load_val(const char *clips_dir, const char *vae_path, gv_model_conf
     int rc = gv_latent_set_load(clips_dir, "eval", vae_path, &vae, cfg, set);
     gv_vae_free(&vae);
     return rc; /* an empty split fails in the load, naming the folder */
+}
+
+int gv_train_model(const gv_model_config *cfg, gv_objective objective, const char *base, int fresh_camera,
+                   uint64_t seed, gv_dit *m, gv_train_state *meta)
+{
+    int pretrain = objective == GV_OBJECTIVE_PRETRAIN, camera_loaded = 0;
+    gv_model_config net = *cfg;
+    if (pretrain) net.lora.rank = 0;
+    snprintf(meta->kind, sizeof meta->kind, "%s", pretrain ? "base" : "finetune");
+    if (base) snprintf(meta->base, sizeof meta->base, "%s", base);
+    if (gv_dit_init(m, &net, seed) || (base && gv_checkpoint_load_base(base, m, !fresh_camera, &camera_loaded)) ||
+        gv_dit_set_train_mode(m, pretrain ? GV_DIT_FULL : GV_DIT_FINETUNE))
+        return -1;
+    if (gv_params_count(&m->params, 1) == 0)
+        return gv_fail("%s: nothing to train in this variant (no LoRA adapters, no camera encoder)", cfg->name);
+    if (base && cfg->variant.camera != GV_CAMERA_NONE)
+        gv_info("train: camera encoder %s", camera_loaded ? "continued from the base" : "trained from its fresh start");
+    return 0;
 }

@@ -2,17 +2,10 @@
 # gaussvid bench splat: help, usage errors, a missing scene, and a 20-iteration smoke run on
 # a tiny synthesised scene in table and JSON form (the full run and its numbers are in
 # docs/BENCHMARKS.md). Usage: bash bench_splat.sh /path/to/gaussvid
-gaussvid="$1"
-tmp="${GV_TMP:-/tmp/gaussvid-cli-bench-splat}"
-rm -rf "$tmp" && mkdir -p "$tmp"
-passed=0
-failed=0
-
-check() {  # check DESCRIPTION COMMAND...: counts the command's success
-    local what="$1"
-    shift
-    if "$@"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: $what"; fi
-}
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup bench-splat "$1"
+gaussvid="$G"
+tmp="$T"
 
 "$gaussvid" bench splat --help > "$tmp/help.txt"
 check "--help exits 0" test $? -eq 0
@@ -38,5 +31,4 @@ for key in seconds cpu_seconds median_ms checkpoints held_out_psnr final_gaussia
 done
 check "json has the table's checkpoints" test "$(grep -c '"iteration":' "$tmp/b.json")" -eq "$rows"
 
-echo "$passed passed, $failed failed"
-test "$failed" -eq 0
+cli_finish

@@ -7,24 +7,6 @@ set -u
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup model "$1"
 
-make_weights() { # make_weights FILE "NAME D0,D1,..." ...: a safetensors file of F32 zeros
-    local file="$1" header="{" off=0 spec name shape numel d bytes
-    shift
-    for spec in "$@"; do
-        name=${spec% *}
-        shape=${spec#* }
-        numel=1
-        IFS=, read -ra dims <<< "$shape"
-        for d in "${dims[@]}"; do numel=$((numel * d)); done
-        bytes=$((numel * 4))
-        [ "$header" = "{" ] || header+=","
-        header+="\"$name\":{\"dtype\":\"F32\",\"shape\":[$shape],\"data_offsets\":[$off,$((off + bytes))]}"
-        off=$((off + bytes))
-    done
-    header+="}"
-    { le64 ${#header}; printf '%s' "$header"; head -c $off /dev/zero; } > "$file"
-}
-
 module_params() { # module_params OUTPUT MODULE: the parameter column of a module line
     echo "$1" | awk -v m="$2" '$1 == m && NF >= 3 { print $3; exit }'
 }
@@ -93,7 +75,7 @@ CAMERA=(
     "blocks.0.camera_modulation 1,6,32" "blocks.1.camera_modulation 1,6,32"
 )
 GOOD="$T/camera.safetensors"
-make_weights "$GOOD" "${CAMERA[@]}"
+st_zeros "$GOOD" "${CAMERA[@]}"
 out=$("$G" model inspect --config tiny --weights "$GOOD" --parts camera 2>&1)
 check_rc "the camera part loads (exit 0): $out" $?
 echo "$out" | grep -q "^the weights load: yes$" && echo "$out" | grep -q "^expected from the checked parts: 21 tensors$"
@@ -110,7 +92,7 @@ for spec in "${CAMERA[@]}"; do
     esac
 done
 list+=("camera_encoder.extra.weight 3")
-make_weights "$BAD" "${list[@]}"
+st_zeros "$BAD" "${list[@]}"
 out=$("$G" model inspect --config tiny --weights "$BAD" --parts camera 2>&1)
 [ $? -eq 1 ]
 check_rc "a bad file exits 1" $?
@@ -137,8 +119,8 @@ out=$("$G" model inspect --config tiny --weights "$GOOD" 2>&1)
 check_rc "all parts: $((n_all - 21)) missing, the first 10 shown" $?
 
 # Several files: the flag repeated, comma-separated, --weights=; a name in two files.
-make_weights "$T/a.safetensors" "${CAMERA[@]:0:4}"
-make_weights "$T/b.safetensors" "${CAMERA[@]:4}"
+st_zeros "$T/a.safetensors" "${CAMERA[@]:0:4}"
+st_zeros "$T/b.safetensors" "${CAMERA[@]:4}"
 "$G" model inspect --config tiny --weights "$T/a.safetensors" --weights "$T/b.safetensors" --parts camera >/dev/null 2>&1
 check_rc "--weights repeated" $?
 "$G" model inspect --config tiny --weights "$T/a.safetensors,$T/b.safetensors" --parts camera >/dev/null 2>&1
@@ -154,7 +136,7 @@ check_rc "a tensor in two files is reported" $?
 mapfile -t FULL < <("$G" model inspect --config tiny --list | awk 'NF == 4 && ($4 == "trainable" || $4 == "frozen") { gsub(/[][]/, "", $2); print $1 " " $2 }')
 [ "${#FULL[@]}" -eq "$n_all" ] && [ "$(printf '%s\n' "${FULL[@]}" | cut -d' ' -f1 | sort -u | wc -l)" -eq "$n_all" ]
 check_rc "--list gives $n_all distinct names" $?
-make_weights "$T/tiny.safetensors" "${FULL[@]}"
+st_zeros "$T/tiny.safetensors" "${FULL[@]}"
 out=$("$G" model inspect --config tiny --weights "$T/tiny.safetensors" 2>&1)
 check_rc "the full tiny file loads" $?
 echo "$out" | grep -q "^expected from the checked parts: $n_all tensors$"

@@ -3,17 +3,10 @@
 # 1 failure, 2 usage), the files written, the JSON layout, the same model for the same seed,
 # and bad inputs (truncated or malformed model, too few frames for the interval) failing
 # with one line that names the file or the problem. Usage: bash splat.sh /path/to/gaussvid
-gaussvid="$1"
-tmp="${GV_TMP:-/tmp/gaussvid-cli-splat}"
-rm -rf "$tmp" && mkdir -p "$tmp"
-passed=0
-failed=0
-
-check() {  # check DESCRIPTION COMMAND...: counts the command's success
-    local what="$1"
-    shift
-    if "$@"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAILED: $what"; fi
-}
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup splat "$1"
+gaussvid="$G"
+tmp="$T"
 
 scene="$tmp/scene"
 "$gaussvid" scene synth --frames 12 --size 48x32 --samples 1 --out "$scene" --quiet
@@ -98,5 +91,4 @@ for c in train render eval; do
     check "splat $c --help" grep -q "usage: gaussvid splat $c" "$tmp/help.txt"
 done
 
-echo "$passed passed, $failed failed"
-test "$failed" -eq 0
+cli_finish

@@ -12,6 +12,8 @@
 #   has TEXT            $T/out contains TEXT
 #   exists PATH         PATH exists
 #   le64 N              prints the 8 little-endian bytes of N (safetensors headers)
+#   st_zeros FILE "NAME D0,D1,..." ...
+#                       writes a safetensors file of F32 zeros with those tensors
 #   cli_finish          prints "N passed, M failed" and returns non-zero on any failure
 
 cli_setup() {
@@ -53,6 +55,23 @@ le64() {
     local i out=""
     for i in 0 1 2 3 4 5 6 7; do out+=$(printf '\\x%02x' $((($1 >> (8 * i)) & 255))); done
     printf "$out"
+}
+
+st_zeros() {
+    local file="$1" header="{" off=0 spec name shape numel d
+    shift
+    for spec in "$@"; do
+        name=${spec% *}
+        shape=${spec#* }
+        numel=1
+        IFS=, read -ra dims <<< "$shape"
+        for d in "${dims[@]}"; do numel=$((numel * d)); done
+        [ "$header" = "{" ] || header+=","
+        header+="\"$name\":{\"dtype\":\"F32\",\"shape\":[$shape],\"data_offsets\":[$off,$((off + numel * 4))]}"
+        off=$((off + numel * 4))
+    done
+    header+="}"
+    { le64 ${#header}; printf '%s' "$header"; head -c $off /dev/zero; } > "$file"
 }
 
 cli_finish() {

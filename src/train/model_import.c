@@ -1,0 +1,296 @@
+/* `gaussvid model import`: a published Wan2.1-VACE release folder becomes a gaussvid base
+ * checkpoint and its VAE (include/gaussvid/model_import.h, docs/WAN_WEIGHTS.md). The release
+ * files are read through gv_weights_open (sharded index, safetensors, PyTorch zip), checked
+ * against the config's weight list, and re-packaged: the DiT tensors straight from the
+ * mapping in their own dtype (no float32 copy of a 14B model in memory), the VAE through
+ * gv_vae_load/gv_vae_save. The checkpoint's metadata is the one gv_checkpoint_save writes for
+ * a base that took no training step, so every loader of checkpoints reads it unchanged
+ * (tests/cli/model_import.sh restores and fine-tunes from it). */
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "gaussvid/checkpoint.h"
+#include "gaussvid/condition.h"
+#include "gaussvid/core.h"
+#include "gaussvid/model_import.h"
+#include "gaussvid/umt5.h"
+#include "gaussvid/vae.h"
+#include "gaussvid/weight_files.h"
+#include "gaussvid/weight_names.h"
+
+/* Elements converted at a time when checking values. */
+enum { CHECK_CHUNK = 1 << 20 };
+
+/* The first of the names that exists in dir, into out; 0 when none does. */
+static int first_existing(const char *dir, const char *const *names, int n, char *out)
+{
+    for (int i = 0; i < n; i++)
+        if (gv_path_join(out, GV_RELEASE_PATH_MAX, dir, names[i]) == 0 && gv_file_exists(out)) return 1;
+    out[0] = '\0';
+    return 0;
+}
+
+int gv_release_find(const char *dir, gv_release_files *files)
+{
+    static const char *const dit[] = {"diffusion_pytorch_model.safetensors.index.json",
+                                      "diffusion_pytorch_model.safetensors"};
+    static const char *const vae[] = {"Wan2.1_VAE.pth", "Wan2.1_VAE.safetensors"};
+    static const char *const config[] = {"config.json"};
+    static const char *const t5[] = {"models_t5_umt5-xxl-enc-bf16.pth"};
+    static const char *const tokenizer[] = {"google/umt5-xxl/spiece.model"};
+    memset(files, 0, sizeof *files);
+    if (!gv_dir_exists(dir)) return gv_fail("%s: not a folder (give the release folder)", dir);
+    if (!first_existing(dir, dit, 2, files->dit))
+        return gv_fail("%s: no DiT weights (%s or %s)", dir, dit[0], dit[1]);
+    if (!first_existing(dir, vae, 2, files->vae)) return gv_fail("%s: no VAE weights (%s or %s)", dir, vae[0], vae[1]);
+    first_existing(dir, config, 1, files->config);
+    first_existing(dir, t5, 1, files->t5);
+    first_existing(dir, tokenizer, 1, files->tokenizer);
+    return 0;
+}
+
+/* ---- the release's config.json -------------------------------------------------------------- */
+
+/* The numbers the release states about its network must be the config's (the other keys,
+ * e.g. "_class_name", are not about shapes). */
+static int check_release_config(const char *path, const gv_model_config *c)
+{
+    char *text = NULL;
+    if (gv_read_file(path, &text, NULL)) return -1;
+    cJSON *root = cJSON_Parse(text);
+    free(text);
+    if (!cJSON_IsObject(root)) {
+        cJSON_Delete(root);
+        return gv_fail("%s: not a JSON object", path);
+    }
+    const struct { const char *key; int value; } ints[] = {
+        {"dim", c->dit.dim}, {"ffn_dim", c->dit.ffn_dim}, {"freq_dim", c->dit.freq_dim},
+        {"num_heads", c->dit.num_heads}, {"num_layers", c->dit.num_layers}, {"in_dim", c->dit.in_dim},
+        {"out_dim", c->dit.out_dim}, {"text_len", c->dit.text_len}, {"text_dim", c->dit.text_dim},
+        {"vace_in_dim", c->dit.vace_in_dim},
+    };
+    int rc = 0;
+    for (size_t i = 0; rc == 0 && i < sizeof ints / sizeof *ints; i++) {
+        const cJSON *v = cJSON_GetObjectItemCaseSensitive(root, ints[i].key);
+        if (v && (!cJSON_IsNumber(v) || v->valuedouble != (double)ints[i].value))
+            rc = gv_fail("%s: %s is %g, but the config %s has %d", path, ints[i].key, cJSON_IsNumber(v) ? v->valuedouble : NAN,
+                         c->name, ints[i].value);
+    }
+    const cJSON *layers = cJSON_GetObjectItemCaseSensitive(root, "vace_layers");
+    if (rc == 0 && layers) {
+        int same = cJSON_IsArray(layers) && cJSON_GetArraySize(layers) == c->dit.n_vace_layers;
+        for (int k = 0; same && k < c->dit.n_vace_layers; k++) {
+            const cJSON *e = cJSON_GetArrayItem(layers, k);
+            same = cJSON_IsNumber(e) && e->valuedouble == c->dit.vace_layers[k];
+        }
+        if (!same) rc = gv_fail("%s: vace_layers differ from the config %s's", path, c->name);
+    }
+    cJSON_Delete(root);
+    return rc;
+}
+
+/* ---- the DiT tensors ------------------------------------------------------------------------ */
+
+/* A NaN or an infinity in a weight is bad input (DESIGN 4): checked chunk by chunk. */
+static int check_finite(const gv_st_file *f, const gv_st_tensor *t, float *buffer)
+{
+    for (int64_t lo = 0; lo < t->n_elements; lo += CHECK_CHUNK) {
+        gv_st_tensor part = *t;
+        part.n_elements = t->n_elements - lo < CHECK_CHUNK ? t->n_elements - lo : CHECK_CHUNK;
+        part.data = (const uint8_t *)t->data + lo * (gv_st_dtype_bits(t->dtype) / 8);
+        if (gv_st_tensor_to_f32(f, &part, buffer)) return -1;
+        for (int64_t k = 0; k < part.n_elements; k++)
+            if (!isfinite(buffer[k]))
+                return gv_fail("%s: %s: value element %lld is %g", f->path, t->name, (long long)(lo + k), (double)buffer[k]);
+    }
+    return 0;
+}
+
+static int dtype_slot(gv_st_dtype d)
+{
+    return d == GV_ST_F32 ? 0 : d == GV_ST_BF16 ? 1 : d == GV_ST_F16 ? 2 : 3;
+}
+
+/* Checks the DiT file against the list and adds its tensors (in the list's order, raw bytes
+ * from the mapping) to the builder. */
+static int add_dit(const gv_st_file *f, const gv_weight_list *l, gv_st_builder *b, gv_import_summary *s)
+{
+    gv_weight_report r;
+    if (gv_weights_check(l, GV_PART_DIT | GV_PART_VACE, f, 1, &r)) return -1;
+    int rc = gv_weight_report_fail(&r, f->path);
+    gv_weight_report_free(&r);
+    float *buffer = rc == 0 ? malloc((size_t)CHECK_CHUNK * sizeof *buffer) : NULL;
+    if (rc == 0 && !buffer) rc = gv_fail("out of memory");
+    for (int i = 0; rc == 0 && i < l->n; i++) {
+        const gv_weight_spec *w = &l->items[i];
+        if (!(gv_module_part(w->module) & (GV_PART_DIT | GV_PART_VACE))) continue;
+        const gv_st_tensor *t = gv_st_find(f, w->name);
+        rc = check_finite(f, t, buffer);
+        if (rc == 0) rc = gv_st_add_raw(b, t->name, t->dtype, t->shape, t->rank, t->data);
+        s->dit_tensors++, s->dit_values += t->n_elements, s->dit_bytes += (int64_t)(t->end - t->begin);
+        s->dit_dtypes[dtype_slot(t->dtype)]++;
+    }
+    free(buffer);
+    return rc;
+}
+
+/* The metadata of gv_checkpoint_save (src/train/checkpoint_state.c) for a base at step 0. */
+/* The VAE is named as written (out_dir/vae.safetensors), as pretraining names its --vae;
+ * gv_checkpoint_vae_path also finds it beside the checkpoint when the folder moves. */
+static int add_metadata(gv_st_builder *b, const gv_model_config *cfg, const char *vae, const char *vae_checksum,
+                        const char *from, const char *text_context, const char *prompt)
+{
+    char *json = gv_model_config_to_json(cfg), version[8], training[GV_CHECKPOINT_TEXT];
+    if (!json) return gv_fail("out of memory for the config");
+    snprintf(version, sizeof version, "%d", GV_CHECKPOINT_VERSION);
+    snprintf(training, sizeof training, "none: the published weights of %s, imported by gaussvid model import", from);
+    const char *keys[] = {"format", "format_version", "kind", "config", "parts", "step", "steps", "adamw_step",
+                          "data_position", "clips_used", "clips_skipped", "seed", "seconds", "loss", "vae",
+                          "vae_checksum", "base", "clips", "data", "training", "imported_from", "text_context",
+                          "text_prompt"};
+    const char *values[] = {GV_CHECKPOINT_FORMAT, version, "base", json, "dit,vace", "0", "0", "0", "0", "0", "0", "0",
+                            "0", "0", vae, vae_checksum, "", "", "", training, from, text_context, prompt};
+    int rc = 0;
+    for (size_t i = 0; rc == 0 && i < sizeof keys / sizeof *keys; i++) rc = gv_st_add_metadata(b, keys[i], values[i]);
+    free(json);
+    return rc;
+}
+
+/* ---- the import --------------------------------------------------------------------------- */
+
+/* The VAE: loaded (names, shapes, values checked), its checksum, written to `path`. */
+static int import_vae(const char *from, const gv_model_config *cfg, const char *path, gv_import_summary *s)
+{
+    gv_vae vae;
+    if (gv_vae_init(&vae, cfg, 0, 0)) return -1;
+    int rc = gv_vae_load(&vae, from, 0);
+    if (rc == 0) {
+        gv_checkpoint_vae_checksum(&vae, s->vae_checksum, sizeof s->vae_checksum);
+        s->vae_tensors = vae.params.n;
+        for (int i = 0; i < vae.params.n; i++) s->vae_values += vae.params.items[i]->t.numel;
+        const char *keys[] = {"imported_from"}, *values[] = {from};
+        rc = gv_vae_save(&vae, cfg, path, keys, values, 1);
+    }
+    gv_vae_free(&vae);
+    return rc;
+}
+
+/* FNV-1a 64 of a file's bytes (the tokenizer model: a few MB). */
+static int file_checksum(const char *path, char *out, size_t size)
+{
+    char *data = NULL;
+    size_t n = 0;
+    if (gv_read_file(path, &data, &n)) return -1;
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < n; i++) h = (h ^ (unsigned char)data[i]) * 0x100000001b3ull;
+    free(data);
+    snprintf(out, size, "fnv1a64:%016llx", (unsigned long long)h);
+    return 0;
+}
+
+/* The prompt's text context, computed once and cached beside the weights, keyed in its
+ * metadata by the prompt, the encoder file (path and size: hashing 11 GB at every import
+ * would cost minutes) and the tokenizer's checksum. */
+static int import_text(const gv_release_files *files, const gv_model_config *cfg, const char *prompt, const char *path,
+                       gv_import_summary *s)
+{
+    gv_st_file f;
+    gv_umt5_config c;
+    gv_tokenizer *t = NULL;
+    const gv_dit_config *d = &cfg->dit;
+    float *context = malloc((size_t)d->text_len * d->text_dim * sizeof *context);
+    int32_t *ids = malloc((size_t)d->text_len * sizeof *ids);
+    if (!context || !ids) {
+        free(context), free(ids);
+        return gv_fail("out of memory for the text context");
+    }
+    int rc = gv_weights_open(&f, files->t5), opened = rc == 0;
+    if (rc == 0) rc = gv_umt5_config_from_file(&f, &c);
+    if (rc == 0 && c.dim != d->text_dim)
+        rc = gv_fail("%s: the text encoder gives %d values per token, the config %s takes text_dim %d", files->t5, c.dim,
+                     cfg->name, d->text_dim);
+    if (rc == 0) rc = gv_tokenizer_open(&t, files->tokenizer);
+    int n = rc == 0 ? gv_umt5_text_context(&c, &f, t, prompt, d->text_len, context, ids) : -1;
+    if (rc == 0 && n < 0) rc = -1;
+    char checksum[48], bytes[32], *token_list = NULL;
+    if (rc == 0) rc = file_checksum(files->tokenizer, checksum, sizeof checksum);
+    if (rc == 0) {
+        snprintf(bytes, sizeof bytes, "%llu", (unsigned long long)f.file_size);
+        size_t cap = (size_t)n * 12 + 4, len = 0;
+        if (!(token_list = malloc(cap))) rc = gv_fail("out of memory");
+        for (int i = 0; rc == 0 && i < n; i++) len += (size_t)snprintf(token_list + len, cap - len, "%s%d", i ? ", " : "[", ids[i]);
+        if (rc == 0) snprintf(token_list + len, cap - len, "]");
+    }
+    gv_st_builder b;
+    gv_st_builder_init(&b);
+    if (rc == 0) rc = gv_st_add_f32(&b, "text_context", GV_ST_F32, (int64_t[]){d->text_len, d->text_dim}, 2, context);
+    const char *keys[] = {"format", "prompt", "tokens", "text_encoder", "text_encoder_bytes", "tokenizer", "tokenizer_checksum"};
+    const char *values[] = {"gaussvid-text-context", prompt, token_list, files->t5, bytes, files->tokenizer, checksum};
+    for (size_t i = 0; rc == 0 && i < sizeof keys / sizeof *keys; i++) rc = gv_st_add_metadata(&b, keys[i], values[i]);
+    if (rc == 0) rc = gv_st_write(&b, path);
+    if (rc == 0) s->text_tokens = n;
+    gv_st_builder_free(&b);
+    gv_tokenizer_close(t);
+    if (opened) gv_st_close(&f);
+    free(context), free(ids), free(token_list);
+    return rc;
+}
+
+int gv_model_import(const gv_release_files *files, const gv_model_config *cfg, const char *prompt, const char *out_dir,
+                    gv_import_summary *summary)
+{
+    memset(summary, 0, sizeof *summary);
+    gv_model_config base = *cfg;
+    base.variant.camera = GV_CAMERA_NONE; /* the release has no camera encoder */
+    if (files->config[0] && check_release_config(files->config, &base)) return -1;
+    int text = prompt && base.dit.cross_attn && (files->t5[0] || files->tokenizer[0]);
+    if (text && (!files->t5[0] || !files->tokenizer[0]))
+        return gv_fail("%s: a text encoder needs its tokenizer (google/umt5-xxl/spiece.model) and the tokenizer its "
+                       "encoder (models_t5_umt5-xxl-enc-bf16.pth); give both, or import without text",
+                       files->t5[0] ? files->t5 : files->tokenizer);
+    gv_weight_list list;
+    if (gv_weight_list_build(&list, &base)) return -1;
+    gv_st_file dit;
+    if (gv_weights_open(&dit, files->dit)) {
+        gv_weight_list_free(&list);
+        return -1;
+    }
+    char vae_tmp[GV_RELEASE_PATH_MAX], base_tmp[GV_RELEASE_PATH_MAX], vae_path[GV_RELEASE_PATH_MAX],
+        base_path[GV_RELEASE_PATH_MAX], text_tmp[GV_RELEASE_PATH_MAX], text_path[GV_RELEASE_PATH_MAX], name[64];
+    gv_st_builder b;
+    gv_st_builder_init(&b);
+    int rc = add_dit(&dit, &list, &b, summary);
+    if (rc == 0) rc = gv_mkdirs(out_dir);
+    /* both files under temporary names first, renamed together at the end */
+    snprintf(name, sizeof name, ".vae.safetensors.import.%ld", (long)getpid());
+    if (rc == 0) rc = gv_path_join(vae_tmp, sizeof vae_tmp, out_dir, name);
+    snprintf(name, sizeof name, ".base.safetensors.import.%ld", (long)getpid());
+    if (rc == 0) rc = gv_path_join(base_tmp, sizeof base_tmp, out_dir, name);
+    if (rc == 0) rc = gv_path_join(vae_path, sizeof vae_path, out_dir, "vae.safetensors");
+    if (rc == 0) rc = gv_path_join(base_path, sizeof base_path, out_dir, "base.safetensors");
+    snprintf(name, sizeof name, ".text_context.safetensors.import.%ld", (long)getpid());
+    if (rc == 0) rc = gv_path_join(text_tmp, sizeof text_tmp, out_dir, name);
+    if (rc == 0) rc = gv_path_join(text_path, sizeof text_path, out_dir, "text_context.safetensors");
+    int wrote_vae = 0, wrote_base = 0, wrote_text = 0;
+    if (rc == 0) rc = import_vae(files->vae, &base, vae_tmp, summary), wrote_vae = rc == 0;
+    if (rc == 0 && text) rc = import_text(files, &base, prompt, text_tmp, summary), wrote_text = rc == 0;
+    if (rc == 0)
+        rc = add_metadata(&b, &base, vae_path, summary->vae_checksum, files->dit, text ? text_path : "", text ? prompt : "");
+    if (rc == 0) rc = gv_st_write(&b, base_tmp), wrote_base = rc == 0;
+    if (rc == 0 && (rename(vae_tmp, vae_path) != 0 || (text && rename(text_tmp, text_path) != 0) ||
+                    rename(base_tmp, base_path) != 0))
+        rc = gv_fail("%s: cannot rename the imported files into place", out_dir);
+    if (rc) {
+        if (wrote_vae) unlink(vae_tmp);
+        if (wrote_text) unlink(text_tmp);
+        if (wrote_base) unlink(base_tmp);
+    }
+    gv_st_builder_free(&b);
+    gv_st_close(&dit); /* after the write: the builder points into its mapping */
+    gv_weight_list_free(&list);
+    return rc;
+}
