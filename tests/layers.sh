@@ -12,9 +12,9 @@ scene   : io          : scene synth reproject
 splat   : scene       : splat splat_train render coverage
 nn      : core        : tensor ops optim nn
 model   : io nn       : model_config dit vae plucker weight_names umt5
-data    : splat       : dataset
-train   : model data  : train condition checkpoint vae_train model_import
-restore : train       : restore
+data    : splat       : dataset internal_pairs
+train   : model data  : train condition checkpoint vae_train model_import scene_adapt
+restore : train       : restore adapt
 eval    : restore     : eval lpips
 bench   : restore     : -
 cli     : eval bench  : -

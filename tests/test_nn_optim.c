@@ -73,6 +73,30 @@ static void test_clip_and_schedule(void)
     CHECK_NEAR(gv_lr_at(&s, 1000), 1e-5, 1e-12);
     s.warmup_steps = 0;
     CHECK_NEAR(gv_lr_at(&s, 0), 1e-3, 1e-12);
+
+    /* linear to 0 over S = 110 steps after 10 of warm-up: lr (S - s) / (S - 10) */
+    gv_lr_schedule lin = {GV_LR_LINEAR, 1e-3, 0.0, 10, 110};
+    CHECK_NEAR(gv_lr_at(&lin, 4), 5e-4, 1e-12);               /* the warm-up is unchanged */
+    CHECK_NEAR(gv_lr_at(&lin, 10), 1e-3, 1e-12);
+    CHECK_NEAR(gv_lr_at(&lin, 35), 7.5e-4, 1e-12);
+    CHECK_NEAR(gv_lr_at(&lin, 60), 5e-4, 1e-12);
+    CHECK_NEAR(gv_lr_at(&lin, 109), 1e-5, 1e-12);             /* the last step: 1/100 of the peak */
+    CHECK(gv_lr_at(&lin, 110) == 0.0 && gv_lr_at(&lin, 500) == 0.0);
+    lin.min_lr = 1e-4;
+    CHECK_NEAR(gv_lr_at(&lin, 60), 1e-4 + 0.5 * 9e-4, 1e-12);
+    /* cosine to 0, no warm-up, S = 4 (the values a 4-step run logs) */
+    gv_lr_schedule cos4 = {GV_LR_COSINE, 1e-4, 0.0, 0, 4};
+    CHECK_NEAR(gv_lr_at(&cos4, 0), 1e-4, 1e-15);
+    CHECK_NEAR(gv_lr_at(&cos4, 1), 0.5e-4 * (1 + cos(M_PI / 4)), 1e-15);
+    CHECK_NEAR(gv_lr_at(&cos4, 2), 0.5e-4, 1e-15);
+    CHECK_NEAR(gv_lr_at(&cos4, 4), 0.0, 1e-20);
+    /* names */
+    gv_lr_kind k = GV_LR_CONSTANT;
+    CHECK(gv_lr_kind_from_name("linear", &k) == 0 && k == GV_LR_LINEAR);
+    CHECK(gv_lr_kind_from_name("cosine", &k) == 0 && k == GV_LR_COSINE);
+    CHECK(gv_lr_kind_from_name("constant", &k) == 0 && k == GV_LR_CONSTANT);
+    CHECK(!strcmp(gv_lr_kind_name(GV_LR_LINEAR), "linear"));
+    CHECK_FAILS_WITH(gv_lr_kind_from_name("step", &k), "expected constant, cosine or linear");
 }
 
 /* y = x A^T + c from 64 samples; a linear layer trained with AdamW must recover A and c. */

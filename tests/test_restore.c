@@ -298,6 +298,17 @@ static void test_eval_table(const char *tmp)
     CHECK_NEAR(t.mean.ssim_rest, ssim_rest_sum / 9, 1e-12);
     CHECK(t.mean.psnr_rest > t.mean.psnr_base && t.mean.ssim_rest > t.mean.ssim_base);
     CHECK_FAILS_WITH(gv_eval_add(&t, NULL, NULL), "already finished");
+    /* a clip with frames without ground truth (target_mask): only frame 2 is measured */
+    gv_eval_table masked;
+    gv_eval_init(&masked, NULL);
+    gv_clip clip;
+    CHECK(rf_make_clip(&clip, "room", "train", 12, W, H, 30, 41) == 0);
+    clip.info.no_target[1] = clip.info.no_target[3] = 1;
+    CHECK(gv_eval_add(&masked, &clip, clip.targets) == 0);
+    gv_eval_finish(&masked);
+    CHECK(masked.mean.clips == 1 && masked.mean.frames == 1);
+    CHECK_NEAR(masked.mean.psnr_base, psnr_here(clip.inputs + 2 * fb, clip.targets + 2 * fb, fb), 1e-5);
+    gv_clip_free(&clip);
     /* JSON: the means and the per-n table */
     char path[4200];
     snprintf(path, sizeof path, "%s/eval.json", tmp);
@@ -424,7 +435,7 @@ static void test_runs(const char *tmp)
     CHECK(rf_make_dataset(dir, specs, 3, W, H, 40) == 0);
     setup s;
     CHECK(setup_make(&s, NULL, 50) == 0);
-    gv_restore_options o = {gv_sampler_default(), GV_COMPOSE_RESIDUAL, "eval", NULL, 0, 1, NULL, NULL};
+    gv_restore_options o = {gv_sampler_default(), GV_COMPOSE_RESIDUAL, "eval", NULL, 0, 1, NULL, NULL, 0};
     /* identity + residual: the restored numbers are the baseline's, exactly */
     CHECK(gv_sampler_from_name("identity", &o.sampler) == 0);
     gv_eval_table t;
@@ -463,6 +474,26 @@ static void test_runs(const char *tmp)
         gv_image_free(&img);
     }
     gv_clip_free(&orig), gv_clip_free(&saved);
+    /* keep_renders (a scene checkpoint's closed gate): no network, no VAE, no cache; the
+     * written clip is the input file byte for byte, and the table's restored = baseline */
+    gv_restore_options keep = o;
+    char kept[4096];
+    snprintf(kept, sizeof kept, "%s/kept", tmp);
+    keep.keep_renders = 1, keep.use_cache = 1, keep.out_dir = kept, keep.save_clips = 1;
+    gv_eval_table k;
+    gv_eval_init(&k, NULL);
+    CHECK(gv_restore_dataset(NULL, dir, into(&keep, &k)) == 0);
+    gv_eval_finish(&k);
+    CHECK(k.mean.clips == 2 && k.mean.psnr_rest == k.mean.psnr_base && k.mean.ssim_rest == k.mean.ssim_base);
+    char *x, *y;
+    size_t nx, ny;
+    snprintf(path, sizeof path, "%s/beta_n08_002.safetensors", kept);
+    CHECK(gv_read_file(path, &x, &nx) == 0 && gv_read_file(p2, &y, &ny) == 0);
+    CHECK(nx == ny && !memcmp(x, y, nx));
+    free(x), free(y);
+    gv_eval_init(&k, NULL);
+    keep.out_dir = NULL;
+    CHECK(gv_restore_files(NULL, paths, 2, into(&keep, &k)) == 0 && k.mean.clips == 2);
     /* bad inputs name the file and the problem */
     o.each = NULL;
     snprintf(path, sizeof path, "%s/nothing.safetensors", tmp);

@@ -252,6 +252,82 @@ static void test_per_frame_sample(void)
     gv_dit_free(&m);
 }
 
+/* Frames without ground truth (a clip's target_mask): the clip's mask reaches the latent frames
+ * that pack a masked frame; a masked latent frame adds nothing to the losses, and its target
+ * does not change the gradient (bit for bit); the losses are means over the frames kept. */
+static void test_masked_frames(void)
+{
+    /* the mapping from the clip's frames to latent frames */
+    gv_model_config small, tiny;
+    CHECK(gv_model_config_preset(&small, "small") == 0 && gv_model_config_preset(&tiny, "tiny") == 0);
+    gv_clip_info info;
+    memset(&info, 0, sizeof info);
+    info.width = info.height = 32, info.id.n = 6;
+    info.no_target[1] = info.no_target[3] = 1;
+    gv_vae vae;
+    memset(&vae, 0, sizeof vae);
+    vae.has_stats = 1;
+    gv_clip_latents shape;
+    vae.cfg = small.vae;                          /* temporal factor 1: one latent frame per frame */
+    CHECK(gv_clip_latents_shape(&vae, &small, &info, &shape) == 0 && shape.latent_frames == 5);
+    CHECK(!memcmp(shape.no_target, ((uint8_t[]){0, 1, 0, 1, 0}), 5) && gv_clip_latents_masked(&shape));
+    vae.cfg = tiny.vae;                           /* factor 4: frames 1-4 share latent frame 1 */
+    CHECK(gv_clip_latents_shape(&vae, &tiny, &info, &shape) == 0 && shape.latent_frames == 2);
+    CHECK(!memcmp(shape.no_target, ((uint8_t[]){0, 1, 0, 0, 0}), 5));
+    CHECK(gv_model_config_set_variant(&tiny, "per-frame", "test") == 0);
+    CHECK(gv_clip_latents_shape(&vae, &tiny, &info, &shape) == 0 && shape.batch == 3); /* intermediates 1-3 */
+    CHECK(!memcmp(shape.no_target, ((uint8_t[]){1, 0, 1, 0, 0}), 5));
+    memset(info.no_target, 0, sizeof info.no_target);
+    CHECK(gv_clip_latents_shape(&vae, &tiny, &info, &shape) == 0 && !gv_clip_latents_masked(&shape));
+
+    /* the losses and the gradient: tiny preset, latent frame 1 of 2 masked */
+    gv_dit m;
+    CHECK(mt_model(&m, NULL, 4) == 0);
+    mt_randomize(&m, MT_ALL, 8);
+    CHECK(gv_dit_set_train_mode(&m, GV_DIT_FINETUNE) == 0);
+    gv_clip_latents l;
+    make_latents(&l, &m.cfg, 1, 41);
+    int64_t n = gv_clip_latents_z_count(&l), k = 0, plane = 16;
+    float *eps = noise(n, 6), *x = malloc((size_t)n * sizeof *x), *v = malloc((size_t)n * sizeof *v);
+    gv_graph g;
+    gv_graph_init(&g, 0);
+    gv_sample_draw d = {0.2f, 1.0, 1.0, 0.1, 0};
+    double *whole = grads(&m, &g, &l, &d, eps, 1.0, &k);
+    l.no_target[1] = 1;
+    double *masked = grads(&m, &g, &l, &d, eps, 1.0, &k);
+    /* another target on the masked frame: z0* of latent frame 1 of every channel */
+    for (int c = 0; c < l.z_dim; c++)
+        for (int64_t i = 0; i < plane; i++) l.z_clean[(c * 2 + 1) * plane + i] += 3.0f * (float)((i % 5) - 2);
+    double *moved = grads(&m, &g, &l, &d, eps, 1.0, &k);
+    CHECK(!memcmp(masked, moved, (size_t)k * sizeof *masked)); /* bit for bit */
+    double differ = 0;
+    for (int64_t i = 0; i < k; i++) differ = fmax(differ, fabs(masked[i] - whole[i]));
+    CHECK(differ > 0); /* the mask does change what is learned */
+    /* the losses: means over latent frame 0 alone, against the network's own velocity */
+    gv_sample_losses s;
+    CHECK(gv_train_sample(&m, &g, &l, GV_OBJECTIVE_FINETUNE, &d, eps, 1.0, 0, &s) == 0);
+    gv_objective_inputs(&l, GV_OBJECTIVE_FINETUNE, 0.2f, eps, x, v);
+    float *vel = independent_velocity(&m, &l, 0.2f, x, GV_OBJECTIVE_FINETUNE);
+    double fm = 0, lat = 0, id = 0, kept = 0;
+    for (int c = 0; c < l.z_dim; c++)
+        for (int64_t i = c * 2 * plane; i < (c * 2 + 1) * plane; i++) {
+            fm += ((double)vel[i] - v[i]) * ((double)vel[i] - v[i]);
+            lat += fabs((double)x[i] - 0.2 * vel[i] - l.z_clean[i]);
+            id += ((double)l.z_clean[i] - l.z_corrupt[i]) * ((double)l.z_clean[i] - l.z_corrupt[i]);
+            kept++;
+        }
+    printf("masked: L_FM %.6f (independent %.6f over %g values), L_lat %.6f (%.6f)\n", s.fm, fm / kept, kept, s.latent,
+           lat / kept);
+    CHECK(kept == n / 2);
+    CHECK_NEAR(s.fm, fm / kept, 1e-5 * fm / kept);
+    CHECK_NEAR(s.latent, lat / kept, 1e-5 * lat / kept);
+    CHECK_NEAR(gv_clip_latents_identity_loss(&l), id / kept, 1e-9 * id / kept);
+    free(whole), free(masked), free(moved), free(vel), free(eps), free(x), free(v);
+    gv_graph_free(&g);
+    gv_clip_latents_free(&l);
+    gv_dit_free(&m);
+}
+
 /* The restorer's velocity at (x, t) on clip l: the largest |(eps - v) - want| over the latent. */
 static double restore_error(gv_dit *m, const gv_clip_latents *l, const float *eps, const float *x, float t,
                             const double *want)
@@ -394,6 +470,7 @@ int main(void)
     test_sample_losses();
     test_gradient_weights();
     test_per_frame_sample();
+    test_masked_frames();
     test_skip_output();
     test_residual_output();
     return check_summary();

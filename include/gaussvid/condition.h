@@ -45,6 +45,9 @@ typedef struct {
     float *plucker;    /* packed Plücker field (plucker.h) of the 5 cameras relative to the first
                           anchor; NULL for the camera variant none */
     int plucker_frames;
+    uint8_t no_target[GV_CLIP_FRAMES]; /* latent frame t of batch b (index b latent_frames + t)
+                          has no ground truth: a frame it packs is masked (the clip's
+                          target_mask); the losses skip it. All 0 for the clips of `dataset build` */
 } gv_clip_latents;
 
 /* Floats of one z_clean / z_corrupt, of vace, of plucker. */
@@ -63,7 +66,10 @@ int gv_clip_latents_shape(const gv_vae *vae, const gv_model_config *cfg, const g
 int gv_clip_latents_alloc(gv_clip_latents *l, int with_plucker);
 int gv_clip_latents_plucker(const gv_clip *clip, int temporal_factor, gv_clip_latents *l);
 
-/* mean (z0* - z-hat)^2 over the clip: the loss of leaving its renders unchanged. */
+/* 1 when some latent frame of the clip has no ground truth (no_target). */
+int gv_clip_latents_masked(const gv_clip_latents *l);
+/* mean (z0* - z-hat)^2 over the clip's latent frames with ground truth: the loss of leaving its
+ * renders unchanged. */
 double gv_clip_latents_identity_loss(const gv_clip_latents *l);
 /* Latent rows [y, y + h) and columns [x, x + w) of every frame of src (latents and VACE
  * context) with the matching pixels of its Plücker field: the clip seen through a window

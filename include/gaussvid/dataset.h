@@ -75,7 +75,8 @@ int gv_parse_intervals(const char *text, int *intervals, int max, int *count);
  * truth), targets U8 [5, H, W, 3] (ground truth of all five), intrinsics F32 [5, 4]
  * (fx, fy, cx, cy in pixels), poses F32 [5, 3, 4] (world-to-camera [R | t], OpenCV axes).
  * __metadata__: format, format_version, scene, split, n, anchor_gap, frame_indices (JSON
- * list), frame_names (JSON list), iters, sampling, seed, width, height. */
+ * list), frame_names (JSON list), iters, sampling, seed, width, height; and, only when they
+ * are not 0, offset and target_mask (JSON list of 5: 1 ground truth, 0 none). */
 typedef struct {
     gv_run_id id;
     int anchor_gap, iters;
@@ -84,6 +85,11 @@ typedef struct {
     uint64_t seed;                   /* the build's --seed */
     int frames[GV_CLIP_FRAMES];      /* frame indices in the scene, increasing */
     char frame_names[GV_CLIP_FRAMES][256]; /* image names (may be empty when read) */
+    /* Scene-internal pairs (internal_pairs.h); 0 in the clips of `dataset build`, and then
+     * absent from the file: */
+    int offset;                      /* the sparse model's training views are offset + k n */
+    uint8_t no_target[GV_CLIP_FRAMES]; /* 1: an intermediate without ground truth (its targets
+                                          frame repeats its input; losses skip it) */
 } gv_clip_info;
 
 typedef struct {

@@ -24,15 +24,20 @@ double gv_grad_norm(const gv_params *ps);
  * torch.nn.utils.clip_grad_norm_); returns the norm before clipping. */
 double gv_clip_grad_norm(gv_params *ps, double max_norm);
 
-typedef enum { GV_LR_CONSTANT = 0, GV_LR_COSINE = 1 } gv_lr_kind;
+/* After the warm-up: constant lr; cosine from lr to min_lr; linear from lr to min_lr. The
+ * decays reach min_lr at total_steps, the step after the last one a run of that length takes. */
+typedef enum { GV_LR_CONSTANT = 0, GV_LR_COSINE = 1, GV_LR_LINEAR = 2 } gv_lr_kind;
 typedef struct {
     gv_lr_kind kind;
     double lr;           /* peak learning rate */
-    double min_lr;       /* end of the cosine */
+    double min_lr;       /* end of the decay */
     long warmup_steps;   /* linear from lr/warmup to lr over steps 0..warmup-1 */
-    long total_steps;    /* cosine reaches min_lr here */
+    long total_steps;    /* the decay reaches min_lr here */
 } gv_lr_schedule;
 /* Learning rate at a 0-based step. */
 double gv_lr_at(const gv_lr_schedule *s, long step);
+/* "constant", "cosine" or "linear", and back (fails naming the unknown name). */
+const char *gv_lr_kind_name(gv_lr_kind kind);
+int gv_lr_kind_from_name(const char *name, gv_lr_kind *out);
 
 #endif

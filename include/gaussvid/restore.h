@@ -117,6 +117,9 @@ typedef struct {
      * what it writes into note (size bytes, empty at the call) is shown on the progress bar */
     int (*each)(void *ctx, const gv_clip *clip, const uint8_t *restored, char *note, size_t size);
     void *each_ctx;
+    int keep_renders;                  /* the restored clip is the input clip, bit for bit: the
+                                          restorer is not used (it may be NULL), no latent cache
+                                          is read (a scene checkpoint's closed gate) */
 } gv_restore_options;
 
 /* Restores clip files (paths) or every clip of a dataset folder (dataset_dir, split), with a

@@ -120,14 +120,16 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
                     const float *eps, double scale, int backward, gv_sample_losses *out);
 
 /* ---- training runs (train/trainer.c) -------------------------------------------------------- */
+struct gv_validation;
 typedef struct {
     gv_objective objective;
     long steps;                  /* S: optimiser steps of the whole run */
     long stop_after;             /* end this invocation after that step (0: at S), as if interrupted */
     int batch;                   /* clips per step (gradients accumulated) */
-    double lr, min_lr;           /* AdamW learning rate; cosine decay to min_lr when cosine */
+    double lr, min_lr;           /* AdamW learning rate; the decays end at min_lr at step S */
     long warmup;                 /* linear warm-up steps */
-    int cosine;
+    gv_lr_kind lr_schedule;      /* after the warm-up: constant (fine-tuning's default), cosine
+                                    (pretraining's) or linear (optim.h) */
     double weight_decay, clip_norm;
     uint64_t seed;
     long checkpoint_every;       /* steps between resumable checkpoints (out + ".ckpt") */
@@ -149,6 +151,10 @@ typedef struct {
     const gv_latent_set *val;    /* fine-tuning: clips to validate on (NULL: none); not part of the trajectory */
     long val_every;              /* steps between validations (also at the first and the last step) */
     const char *val_log;         /* tab-separated validation log, or NULL */
+    /* called after each validation with the network at that step (NULL: none), e.g. to keep
+     * the best step (gv_adapt_train); it must not change the network */
+    int (*on_validation)(void *ctx, gv_dit *m, long step, const struct gv_validation *v);
+    void *on_validation_ctx;
 } gv_train_options;
 
 /* The defaults of an objective (docs/TRAINING.md). */
@@ -181,7 +187,7 @@ void gv_train_data_text(const gv_latent_set *data, const char *split, char *out,
 /* ---- validation (train/validate.c) ---------------------------------------------------------- */
 #define GV_VAL_TIMES 4           /* timesteps per clip, evenly spaced in [0, t_max] */
 #define GV_VAL_GROUPS 16         /* intervals n told apart */
-typedef struct {
+typedef struct gv_validation {
     int groups;                  /* distinct intervals n, in order of appearance */
     int n[GV_VAL_GROUPS], clips[GV_VAL_GROUPS];
     double loss[GV_VAL_GROUPS];  /* mean velocity MSE = restored latent MSE (one step eps - v) */

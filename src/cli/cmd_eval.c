@@ -54,9 +54,9 @@ int cmd_eval(int argc, char **argv)
         gv_eval_print_markdown(table, stdout);
     }
     if (rc == 0 && json) {
-        const char *keys[5] = {"checkpoint", "sampler", "compose", "split", "clips_dir"};
-        const char *values[5] = {c.ckpt, text, gv_compose_name(o.compose), c.split, clips};
-        rc = gv_eval_write_json(table, json, keys, values, 5);
+        const char *keys[6] = {"checkpoint", "sampler", "compose", "split", "clips_dir", "gate"};
+        const char *values[6] = {c.ckpt, text, gv_compose_name(o.compose), c.split, clips, s.gate};
+        rc = gv_eval_write_json(table, json, keys, values, s.gate ? 6 : 5);
     }
     if (rc == 0 && identity) {
         /* restore.h: the identity sampler with residual composition reproduces the inputs */

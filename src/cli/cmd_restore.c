@@ -7,6 +7,7 @@
 #include "cli/cmd_restore.h"
 #include "cli/commands.h"
 #include "gaussvid/core.h"
+#include "gaussvid/scene_adapt.h"
 
 void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
 {
@@ -38,6 +39,9 @@ int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_rest
     if (gv_restorer_load(c->ckpt, &s->r)) return -1;
     gv_info("%s: %s checkpoint of %s, step %ld of %ld", c->ckpt, s->r.state.kind, s->r.cfg.name, s->r.state.step,
             s->r.state.steps);
+    char gate_line[1024];
+    if (gv_restore_cli_gate(c->ckpt, o, gate_line, sizeof gate_line, &s->gate)) return -1;
+    fputs(gate_line, stdout);
     if (c->lpips && gv_lpips_load(&s->lpips, c->lpips)) return -1;
     gv_eval_init(&s->table, c->lpips ? &s->lpips : NULL);
     o->each = gv_eval_add_restored, o->each_ctx = &s->table;
@@ -70,6 +74,24 @@ int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o)
         return gv_fail("--split %s: expected train, eval or all", c->split);
     o->split = c->split && strcmp(c->split, "all") ? c->split : NULL;
     o->use_cache = !c->no_cache;
+    return 0;
+}
+
+int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, size_t size, const char **gate)
+{
+    line[0] = '\0';
+    *gate = NULL;
+    int is = gv_scene_checkpoint_is(ckpt);
+    gv_scene_adaptation a;
+    if (is <= 0) return is;
+    if (gv_scene_checkpoint_read(ckpt, &a)) return -1;
+    o->keep_renders = !a.gate_open;
+    *gate = a.gate_open ? "open" : "closed";
+    snprintf(line, size,
+             "%s: adapted to %s at n = %d; gate %s: its held-back pairs %+.2f dB when restored (margin %+.2f dB), so "
+             "the renders are %s\n",
+             ckpt, a.scene, a.interval, *gate, gv_scene_gate_change(&a), a.gate_margin_db,
+             a.gate_open ? "restored" : "left unchanged");
     return 0;
 }
 

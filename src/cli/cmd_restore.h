@@ -19,14 +19,22 @@ typedef struct {
 void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *flags, const char *split_help);
 /* The restore options of the flags; fails (a usage error) naming the flag. */
 int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o);
-/* What a restore or eval run holds: the checkpoint, the LPIPS weights of --lpips, the table. */
+/* A scene checkpoint's gate (scene_adapt.h): sets o->keep_renders when it is closed and writes
+ * the line that says what happens into line (empty for other checkpoints); *gate gets "open",
+ * "closed" or NULL. */
+int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, size_t size, const char **gate);
+/* What a restore or eval run holds: the checkpoint, the LPIPS weights of --lpips, the table,
+ * and a scene checkpoint's gate ("open", "closed" or NULL for other checkpoints). */
 typedef struct {
     gv_restorer r;
     gv_lpips lpips;
     gv_eval_table table;
+    const char *gate;
 } gv_restore_session;
-/* Loads the checkpoint (saying what it is) and the --lpips weights, and makes o hand every
- * restored clip to s->table. s is freed by gv_restore_cli_end whatever this returns. */
+/* Loads the checkpoint (saying what it is; a scene checkpoint over its base), applies a scene
+ * checkpoint's gate to o (printing the line that says what happens), loads the --lpips weights,
+ * and makes o hand every restored clip to s->table. s is freed by gv_restore_cli_end whatever
+ * this returns. */
 int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_restore_session *s);
 void gv_restore_cli_end(gv_restore_session *s);
 /* Prints "usage error" as the commands do and returns 2. */

@@ -79,7 +79,7 @@ int cmd_train(int argc, char **argv)
     gv_train_defaults(&o, GV_OBJECTIVE_FINETUNE);
     gv_run_cli run = {NULL, NULL, (int)o.steps, o.batch, (int)o.warmup, 0, (int)o.checkpoint_every, 0, 0, o.lr, {""}};
     const char *clips = NULL, *base = NULL, *config = NULL, *vae = NULL, *variant = NULL;
-    const char *val_clips = NULL, *val_log = NULL, *crop = NULL;
+    const char *val_clips = NULL, *val_log = NULL, *crop = NULL, *schedule = "constant";
     int s_w = 0, val_every = 0, no_curriculum = 0, no_progressive = 0;
     const gv_flag own[] = {
         {"clips", GV_FLAG_STRING, &clips, "DIR", "dataset folder (manifest.json); its train split is used", 1},
@@ -87,6 +87,8 @@ int cmd_train(int argc, char **argv)
         {"config", GV_FLAG_STRING, &config, "PRESET|FILE", "check the base against this config and take its variant and LoRA", 0},
         {"vae", GV_FLAG_STRING, &vae, "FILE", "the VAE (default: the one the base names; must be the same)", 0},
         {"variant", GV_FLAG_STRING, &variant, "V", "ablation: camera=none|early|monolithic|decomposed, anchors=none|first|both, per-frame, lora=R", 0},
+        {"lr-schedule", GV_FLAG_STRING, &schedule, "NAME",
+         "after the warm-up: constant (default, the paper's), linear or cosine (both decay to 0 at step S)", 0},
         {"no-curriculum", GV_FLAG_BOOL, &no_curriculum, NULL, "ablation: shuffled clips, all weighted 1", 0},
         {"no-progressive-loss", GV_FLAG_BOOL, &no_progressive, NULL, "ablation: flow matching loss only", 0},
         {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's (the paper trains it from scratch)", 0},
@@ -124,13 +126,18 @@ int cmd_train(int argc, char **argv)
         return 2;
     }
     if (crop && gv_parse_crop("train", crop, &o.crop_h, &o.crop_w)) return 2;
+    if (gv_lr_kind_from_name(schedule, &o.lr_schedule)) {
+        fprintf(stderr, "gaussvid train: --lr-schedule: %s\n", gv_last_error());
+        return 2;
+    }
     if ((val_every || val_log) && !val_clips) {
         fprintf(stderr, "gaussvid train: --val-every and --val-log need --val-clips\n");
         return 2;
     }
     gv_run_cli_apply(&run, &o);
     o.latent_warmup = s_w, o.curriculum = !no_curriculum, o.progressive = !no_progressive;
-    o.min_lr = o.lr, o.val_every = val_every ? val_every : run.checkpoint_every, o.val_log = val_log;
+    o.min_lr = o.lr_schedule == GV_LR_CONSTANT ? o.lr : 0.0;
+    o.val_every = val_every ? val_every : run.checkpoint_every, o.val_log = val_log;
 
     gv_model_config cfg;
     gv_train_state base_state, meta;

@@ -42,5 +42,6 @@ int cmd_pretrain(int argc, char **argv);
 int cmd_train(int argc, char **argv);
 int cmd_restore(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
+int cmd_adapt(int argc, char **argv);
 
 #endif

@@ -64,17 +64,36 @@ int gv_clip_check_info(const gv_clip_info *info, const char *what)
         return gv_fail("%s: size %dx%d: outside 1..%d", what, info->width, info->height, MAX_SIDE);
     if ((unsigned)info->sampling > GV_SAMPLING_RELEASED)
         return gv_fail("%s: unknown sampling %d", what, (int)info->sampling);
-    const int *fr = info->frames;
+    const int *fr = info->frames, o = info->offset;
     for (int i = 1; i < GV_CLIP_FRAMES; i++)
         if (fr[i] <= fr[i - 1])
             return gv_fail("%s: frame_indices are not strictly increasing", what);
-    if (fr[0] < 0 || !gv_scene_is_train(fr[0], info->id.n) || (long)fr[4] - fr[0] != (long)info->anchor_gap * info->id.n)
-        return gv_fail("%s: anchors %d and %d are not training views %d * n apart (n = %d)",
-                       what, fr[0], fr[4], info->anchor_gap, info->id.n);
+    if (o < 0 || o >= info->id.n)
+        return gv_fail("%s: offset %d: expected 0..n - 1 (n = %d)", what, o, info->id.n);
+    if (fr[0] < o || !gv_scene_is_train(fr[0] - o, info->id.n) ||
+        (long)fr[4] - fr[0] != (long)info->anchor_gap * info->id.n)
+        return gv_fail("%s: anchors %d and %d are not training views %d * n apart (n = %d, offset %d)",
+                       what, fr[0], fr[4], info->anchor_gap, info->id.n, o);
     for (int i = 1; i < 4; i++)
-        if (gv_scene_is_train(fr[i], info->id.n))
-            return gv_fail("%s: intermediate frame %d is a training view (n = %d)", what, fr[i],
-                           info->id.n);
+        if (gv_scene_is_train(fr[i] - o, info->id.n))
+            return gv_fail("%s: intermediate frame %d is a training view (n = %d, offset %d)", what,
+                           fr[i], info->id.n, o);
+    int supervised = 0;
+    for (int i = 0; i < GV_CLIP_FRAMES; i++) {
+        int anchor = i == 0 || i == GV_CLIP_FRAMES - 1;
+        if (info->no_target[i] > 1 || (anchor && info->no_target[i]))
+            return gv_fail("%s: target_mask: frame %d must be %s", what, i, anchor ? "1 (an anchor)" : "0 or 1");
+        supervised += !anchor && !info->no_target[i];
+    }
+    if (!supervised) return gv_fail("%s: target_mask: no intermediate frame has ground truth", what);
+    return 0;
+}
+
+/* 1 when the clip has a frame without ground truth (then target_mask is written). */
+static int has_mask(const gv_clip_info *info)
+{
+    for (int i = 0; i < GV_CLIP_FRAMES; i++)
+        if (info->no_target[i]) return 1;
     return 0;
 }
 
@@ -87,13 +106,14 @@ static int add_int(gv_st_builder *b, const char *key, long long value)
     return gv_st_add_metadata(b, key, text);
 }
 
-/* The JSON list of the frame indices, or of the frame names; NULL when memory runs out. */
-static char *frames_json(const gv_clip_info *info, int names)
+/* The JSON list of the frame indices (what 0), the frame names (1) or the target mask (2);
+ * NULL when memory runs out. */
+static char *frames_json(const gv_clip_info *info, int what)
 {
     cJSON *list = cJSON_CreateArray();
     for (int i = 0; list && i < GV_CLIP_FRAMES; i++) {
-        cJSON *item = names ? cJSON_CreateString(info->frame_names[i])
-                            : cJSON_CreateNumber(info->frames[i]);
+        cJSON *item = what == 1 ? cJSON_CreateString(info->frame_names[i])
+                                : cJSON_CreateNumber(what == 2 ? !info->no_target[i] : info->frames[i]);
         if (!item || !cJSON_AddItemToArray(list, item)) {
             cJSON_Delete(item);
             cJSON_Delete(list);
@@ -122,6 +142,10 @@ static int add_metadata(gv_st_builder *b, const gv_clip_info *info)
              gv_st_add_metadata(b, "sampling", gv_sampling_name(info->sampling)) ||
              gv_st_add_metadata(b, "seed", seed) || add_int(b, "width", info->width) ||
              add_int(b, "height", info->height);
+    if (rc == 0 && info->offset) rc = add_int(b, "offset", info->offset);
+    char *mask = rc == 0 && has_mask(info) ? frames_json(info, 2) : NULL;
+    if (rc == 0 && has_mask(info)) rc = mask ? gv_st_add_metadata(b, "target_mask", mask) : gv_fail("out of memory");
+    free(mask);
     free(indices);
     free(names);
     return rc ? -1 : 0;
@@ -167,6 +191,23 @@ static int meta_int(const gv_st_file *f, const char *key, long min, long max, in
         return gv_fail("%s: metadata %s '%s': expected an integer in %ld..%ld", f->path, key, text,
                        min, max);
     *out = (int)v;
+    return 0;
+}
+
+/* target_mask (optional): a JSON list of 5 values 0 or 1, into no_target (1 - value). */
+static int meta_mask(const gv_st_file *f, gv_clip_info *info)
+{
+    const char *text = gv_st_metadata(f, "target_mask");
+    if (!text) return 0;
+    cJSON *list = cJSON_Parse(text);
+    int ok = cJSON_IsArray(list) && cJSON_GetArraySize(list) == GV_CLIP_FRAMES;
+    for (int i = 0; ok && i < GV_CLIP_FRAMES; i++) {
+        cJSON *item = cJSON_GetArrayItem(list, i);
+        ok = cJSON_IsNumber(item) && (item->valuedouble == 0 || item->valuedouble == 1);
+        if (ok) info->no_target[i] = item->valuedouble == 0;
+    }
+    cJSON_Delete(list);
+    if (!ok) return gv_fail("%s: metadata target_mask '%.60s': expected a JSON list of %d values 0 or 1", f->path, text, GV_CLIP_FRAMES);
     return 0;
 }
 
@@ -227,7 +268,8 @@ static int read_metadata(const gv_st_file *f, gv_clip_info *info)
         meta_int(f, "iters", 0, 1000000000, &info->iters) ||
         meta_int(f, "width", 1, MAX_SIDE, &info->width) ||
         meta_int(f, "height", 1, MAX_SIDE, &info->height) || meta_frames(f, info, 0) ||
-        meta_frames(f, info, 1))
+        meta_frames(f, info, 1) || meta_mask(f, info) ||
+        (gv_st_metadata(f, "offset") && meta_int(f, "offset", 0, 1000000, &info->offset)))
         return -1;
     return gv_clip_check_info(info, f->path);
 }
@@ -310,6 +352,11 @@ int gv_clip_read(const char *path, gv_clip *clip)
                    frame_bytes))
             rc = gv_fail("%s: anchor frame %d differs between inputs and targets (anchors are "
                          "clean ground truth)", path, i);
+    for (int i = 1; rc == 0 && i < GV_CLIP_FRAMES - 1; i++)
+        if (info.no_target[i] && memcmp(gv_clip_frame(clip->inputs, &info, i),
+                                        gv_clip_frame(clip->targets, &info, i), frame_bytes))
+            rc = gv_fail("%s: frame %d has no ground truth (target_mask 0) but its targets frame "
+                         "differs from its input", path, i);
     if (rc != 0) gv_clip_free(clip);
     return rc;
 }

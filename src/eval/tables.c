@@ -38,7 +38,10 @@ int gv_eval_add(gv_eval_table *t, const gv_clip *clip, const uint8_t *restored)
     const gv_clip_info *info = &clip->info;
     /* psnr, ssim, lpips of the baseline, then of the restored frames */
     double sums[6] = {0, 0, 0, 0, 0, 0};
+    int frames = 0;
     for (int f = 1; f < GV_CLIP_FRAMES - 1; f++) {
+        if (info->no_target[f]) continue; /* no ground truth: nothing to measure */
+        frames++;
         size_t off = (size_t)f * info->width * info->height * 3;
         gv_image truth = {info->width, info->height, 3, clip->targets + off};
         gv_image frames[2] = {{info->width, info->height, 3, clip->inputs + off},
@@ -56,7 +59,7 @@ int gv_eval_add(gv_eval_table *t, const gv_clip *clip, const uint8_t *restored)
     gv_eval_row *rows[2] = {r, &t->mean};
     for (int k = 0; k < 2; k++) {
         rows[k]->clips++;
-        rows[k]->frames += GV_CLIP_FRAMES - 2;
+        rows[k]->frames += frames;
         rows[k]->psnr_base += sums[0], rows[k]->ssim_base += sums[1], rows[k]->lpips_base += sums[2];
         rows[k]->psnr_rest += sums[3], rows[k]->ssim_rest += sums[4], rows[k]->lpips_rest += sums[5];
     }

@@ -1,5 +1,6 @@
 /* Gradient clipping by global norm and learning-rate schedules. */
 #include <stdlib.h>
+#include <string.h>
 
 #include "gaussvid/optim.h"
 #include "nn/nn_internal.h"
@@ -55,5 +56,23 @@ double gv_lr_at(const gv_lr_schedule *s, long step)
     long span = s->total_steps - s->warmup_steps;
     double progress = span > 0 ? (double)(step - s->warmup_steps) / (double)span : 1.0;
     if (progress > 1.0) progress = 1.0;
+    if (s->kind == GV_LR_LINEAR) return s->min_lr + (s->lr - s->min_lr) * (1.0 - progress);
     return s->min_lr + 0.5 * (s->lr - s->min_lr) * (1.0 + cos(M_PI * progress));
+}
+
+static const char *const lr_kind_names[] = {"constant", "cosine", "linear"};
+
+const char *gv_lr_kind_name(gv_lr_kind kind)
+{
+    return (unsigned)kind < 3 ? lr_kind_names[kind] : "unknown";
+}
+
+int gv_lr_kind_from_name(const char *name, gv_lr_kind *out)
+{
+    for (int k = 0; k < 3; k++)
+        if (!strcmp(name, lr_kind_names[k])) {
+            *out = (gv_lr_kind)k;
+            return 0;
+        }
+    return gv_fail("learning-rate schedule '%s': expected constant, cosine or linear", name);
 }

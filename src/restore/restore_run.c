@@ -35,12 +35,33 @@ static int write_outputs(const char *out_dir, const char *stem, const gv_clip *c
     return gv_clip_write(path, &restored);
 }
 
+/* A clip left as rendered (o->keep_renders): its input frames, written and handed on as a
+ * restored clip would be. */
+static int keep_one(const gv_clip *clip, const char *name, const gv_restore_options *o, char *note, size_t note_size)
+{
+    const gv_clip_info *info = &clip->info;
+    size_t bytes = (size_t)GV_CLIP_FRAMES * info->width * info->height * 3;
+    uint8_t *frames = malloc(bytes);
+    if (!frames) return gv_fail("restore: out of memory");
+    memcpy(frames, clip->inputs, bytes);
+    int rc = 0;
+    if (o->out_dir) {
+        char stem[512];
+        clip_stem(name, stem, sizeof stem);
+        rc = write_outputs(o->out_dir, stem, clip, frames, o->save_clips);
+    }
+    if (rc == 0 && o->each) rc = o->each(o->each_ctx, clip, frames, note, note_size);
+    free(frames);
+    return rc;
+}
+
 /* One clip: latents l (NULL: prepared here), restored, written, handed to o->each. */
 static int restore_one(gv_restorer *r, const gv_clip *clip, const char *name, const gv_clip_latents *given,
                        const gv_restore_options *o, char *note, size_t note_size)
 {
     gv_clip_latents own;
     const gv_clip_latents *l = given;
+    if (o->keep_renders) return keep_one(clip, name, o, note, note_size);
     if (!l) {
         if (gv_clip_latents_prepare(&r->vae, &r->net.cfg, clip, &own)) return -1;
         l = &own;
@@ -70,7 +91,7 @@ static void progress_note(gv_progress *bar, long done, const char *note)
 
 int gv_restore_files(gv_restorer *r, const char *const *paths, int n_paths, const gv_restore_options *o)
 {
-    if (gv_sampler_check(&o->sampler)) return -1;
+    if (!o->keep_renders && gv_sampler_check(&o->sampler)) return -1;
     gv_progress bar;
     gv_progress_start(&bar, "restore", n_paths);
     int rc = 0;
@@ -92,9 +113,12 @@ int gv_restore_files(gv_restorer *r, const char *const *paths, int n_paths, cons
     return rc;
 }
 
-int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore_options *o)
+int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore_options *given)
 {
-    if (gv_sampler_check(&o->sampler)) return -1;
+    gv_restore_options keep = *given;
+    const gv_restore_options *o = &keep;
+    if (keep.keep_renders) keep.use_cache = 0; /* no latents needed */
+    if (!o->keep_renders && gv_sampler_check(&o->sampler)) return -1;
     gv_latent_set set;
     memset(&set, 0, sizeof set);
     gv_manifest man;

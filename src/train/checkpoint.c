@@ -10,6 +10,7 @@
 
 #include "gaussvid/condition.h"
 #include "gaussvid/core.h"
+#include "gaussvid/scene_adapt.h"
 #include "train/train_internal.h"
 
 void gv_checkpoint_vae_checksum(const gv_vae *vae, char *out, size_t size)
@@ -63,13 +64,16 @@ int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state 
     const char *json = gv_st_metadata(f, "config");
     if (!json) return gv_fail("%s: metadata config is missing", f->path);
     if (gv_model_config_parse(cfg, json, f->path)) return -1;
-    /* every checkpoint holds the DiT and VACE: refuse a config the file cannot hold before
-     * anyone builds its network (issue 25) */
-    if (gv_weights_fit(cfg, GV_PART_DIT | GV_PART_VACE, f->data_size, f->path)) return -1;
     memset(s, 0, sizeof *s);
     meta_text(f, "kind", s->kind, sizeof s->kind);
-    if (strcmp(s->kind, "base") && strcmp(s->kind, "finetune"))
-        return gv_fail("%s: metadata kind is \"%s\", expected base or finetune", f->path, s->kind);
+    /* every checkpoint but a scene checkpoint holds the DiT and VACE: refuse a config the file
+     * cannot hold before anyone builds its network (issue 25). A scene checkpoint holds only
+     * adapters; its base is checked when it loads. */
+    if (strcmp(s->kind, GV_SCENE_CHECKPOINT_KIND) &&
+        gv_weights_fit(cfg, GV_PART_DIT | GV_PART_VACE, f->data_size, f->path))
+        return -1;
+    if (strcmp(s->kind, "base") && strcmp(s->kind, "finetune") && strcmp(s->kind, GV_SCENE_CHECKPOINT_KIND))
+        return gv_fail("%s: metadata kind is \"%s\", expected base, finetune or scene", f->path, s->kind);
     const char *seed_text = gv_st_metadata(f, "seed");
     char *end = NULL;
     if (meta_long(f, "step", &s->step) || meta_long(f, "steps", &s->steps) || meta_long(f, "adamw_step", &s->adamw_step) ||
@@ -119,6 +123,12 @@ unsigned gv_dit_param_part(const gv_dit *m, const char *name)
 {
     const gv_weight_spec *s = gv_weight_list_find(&m->weights, name);
     return s ? gv_module_part(s->module) : 0;
+}
+
+int gv_dit_param_is_adapter(const gv_dit *m, const char *name)
+{
+    const gv_weight_spec *s = gv_weight_list_find(&m->weights, name);
+    return s && s->trainable;
 }
 
 /* Reads every tensor of m from the file; a base may lack its (zero-start) LoRA adapters. */
@@ -192,6 +202,10 @@ int gv_restorer_load(const char *path, gv_restorer *r)
     memset(r, 0, sizeof *r);
     if (gv_ckpt_open(&f, path)) return -1;
     int rc = gv_ckpt_read_meta(&f, &r->cfg, &r->state);
+    if (rc == 0 && !strcmp(r->state.kind, GV_SCENE_CHECKPOINT_KIND)) { /* adapters over the base it names */
+        gv_st_close(&f);
+        return gv_scene_checkpoint_load(path, r);
+    }
     if (rc == 0) rc = gv_dit_init(&r->net, &r->cfg, 0);
     if (rc == 0) rc = load_network(&f, &r->net, &r->state);
     if (rc == 0) rc = load_vae(&f, r);

@@ -9,11 +9,14 @@
 #include "gaussvid/core.h"
 #include "train/train_internal.h"
 
-static const char *parts_text(const gv_dit *m, char *out, size_t size)
+/* The parts the file's tensors cover: every tensor of m, or only those fine-tuning trains. */
+static const char *parts_text(const gv_dit *m, int adapters_only, char *out, size_t size)
 {
     static const char *const names[] = {"dit", "vace", "vae", "camera", "lora"};
     unsigned parts = 0;
-    for (int i = 0; i < m->params.n; i++) parts |= gv_dit_param_part(m, m->params.items[i]->t.name);
+    for (int i = 0; i < m->params.n; i++)
+        if (!adapters_only || gv_dit_param_is_adapter(m, m->params.items[i]->t.name))
+            parts |= gv_dit_param_part(m, m->params.items[i]->t.name);
     out[0] = '\0';
     for (int i = 0; i < 5; i++)
         if (parts & (1u << i)) {
@@ -32,7 +35,8 @@ static int add_tensor(gv_st_builder *b, const char *prefix, const gv_tensor *t, 
     return gv_st_add_f32(b, name, GV_ST_F32, shape, t->ndim, data);
 }
 
-static int add_state(gv_st_builder *b, const gv_dit *m, const gv_model_config *cfg, const gv_train_state *s)
+int gv_ckpt_add_state(gv_st_builder *b, const gv_dit *m, const gv_model_config *cfg, const gv_train_state *s,
+                      int adapters_only)
 {
     char num[12][40], parts[64], version[8];
     char *json = gv_model_config_to_json(cfg);
@@ -50,7 +54,7 @@ static int add_state(gv_st_builder *b, const gv_dit *m, const gv_model_config *c
     const char *keys[] = {"format", "format_version", "kind", "config", "parts", "step", "steps", "adamw_step",
                           "data_position", "clips_used", "clips_skipped", "seed", "seconds", "loss", "vae",
                           "vae_checksum", "base", "clips", "data", "training", "rng"};
-    const char *values[] = {GV_CHECKPOINT_FORMAT, version, s->kind, json, parts_text(m, parts, sizeof parts),
+    const char *values[] = {GV_CHECKPOINT_FORMAT, version, s->kind, json, parts_text(m, adapters_only, parts, sizeof parts),
                             num[0], num[1], num[2], num[3], num[4], num[5], num[6], num[7], num[8], s->vae,
                             s->vae_checksum, s->base, s->clips, s->data, s->training,
                             "philox4x32-10: step s draws its clips' timesteps and noise from the stream (seed, s)"};
@@ -72,7 +76,7 @@ int gv_checkpoint_save(const char *path, const gv_dit *m, const gv_model_config 
         if (rc == 0 && with_moments && p->trainable && p->m) rc = add_tensor(&b, "adamw.m.", &p->t, p->m);
         if (rc == 0 && with_moments && p->trainable && p->v) rc = add_tensor(&b, "adamw.v.", &p->t, p->v);
     }
-    if (rc == 0) rc = add_state(&b, m, cfg, s);
+    if (rc == 0) rc = gv_ckpt_add_state(&b, m, cfg, s, 0);
     if (rc == 0) rc = gv_st_write(&b, path);
     gv_st_builder_free(&b);
     return rc;

@@ -24,14 +24,29 @@ int64_t gv_clip_latents_plucker_count(const gv_clip_latents *l)
     return (int64_t)l->batch * 6 * l->plucker_frames * l->height * l->width;
 }
 
+int gv_clip_latents_masked(const gv_clip_latents *l)
+{
+    for (int i = 0; i < GV_CLIP_FRAMES; i++)
+        if (l->no_target[i]) return 1;
+    return 0;
+}
+
 double gv_clip_latents_identity_loss(const gv_clip_latents *l)
 {
-    int64_t n = gv_clip_latents_z_count(l);
+    const int64_t plane = (int64_t)l->lh * l->lw;
     double sum = 0;
-    for (int64_t i = 0; i < n; i++) {
-        double d = (double)l->z_clean[i] - l->z_corrupt[i];
-        sum += d * d;
-    }
+    int64_t n = 0;
+    for (int b = 0; b < l->batch; b++)
+        for (int c = 0; c < l->z_dim; c++)
+            for (int t = 0; t < l->latent_frames; t++) {
+                if (l->no_target[b * l->latent_frames + t]) continue;
+                const int64_t at = (((int64_t)b * l->z_dim + c) * l->latent_frames + t) * plane;
+                for (int64_t i = at; i < at + plane; i++) {
+                    double d = (double)l->z_clean[i] - l->z_corrupt[i];
+                    sum += d * d;
+                }
+                n += plane;
+            }
     return n ? sum / (double)n : 0;
 }
 
@@ -167,6 +182,16 @@ int gv_clip_latents_shape(const gv_vae *vae, const gv_model_config *cfg, const g
     l->lh = info->height / vae->cfg.spatial_factor, l->lw = info->width / vae->cfg.spatial_factor;
     l->vace_dim = cfg->dit.vace_in_dim;
     l->plucker_frames = gv_plucker_packed_frames(frames, vae->cfg.temporal_factor);
+    /* frames without ground truth (target_mask): a latent frame packs the first frame alone,
+     * then groups of the temporal factor, and has none when any frame it packs has none; the
+     * per-frame restorer's batch b is intermediate b + 1 */
+    const int tf = vae->cfg.temporal_factor;
+    for (int b = 0; b < l->batch; b++)
+        for (int t = 0; t < l->latent_frames; t++) {
+            int from = per_frame ? 1 + b : t == 0 ? 0 : 1 + (t - 1) * tf, to = per_frame || t == 0 ? from : t * tf;
+            for (int f = from; f <= to && f < GV_CLIP_FRAMES; f++)
+                l->no_target[b * l->latent_frames + t] |= info->no_target[f];
+        }
     return 0;
 }
 

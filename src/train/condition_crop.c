@@ -39,6 +39,7 @@ int gv_clip_latents_crop(const gv_clip_latents *src, int y, int x, int h, int w,
         if (gv_clip_latents_alloc(dst, src->plucker != NULL)) return -1;
     }
     dst->n = src->n, dst->frames = src->frames;
+    memcpy(dst->no_target, src->no_target, sizeof dst->no_target);
     int z_planes = src->batch * src->z_dim * src->latent_frames;
     copy_window(src->z_clean, z_planes, src->lh, src->lw, y, x, h, w, dst->z_clean);
     copy_window(src->z_corrupt, z_planes, src->lh, src->lw, y, x, h, w, dst->z_corrupt);

@@ -12,6 +12,12 @@ int gv_ckpt_open(gv_st_file *f, const char *path);
 int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state *s);
 /* The part (GV_PART_*) of a network tensor, from the model's weight list. */
 unsigned gv_dit_param_part(const gv_dit *m, const char *name);
+/* 1 for a tensor fine-tuning trains (the adapters a scene checkpoint holds). */
+int gv_dit_param_is_adapter(const gv_dit *m, const char *name);
+/* checkpoint_state.c: the metadata of a checkpoint file (format, kind, config, parts, the
+ * training state); adapters_only: "parts" names those of the adapters alone. */
+int gv_ckpt_add_state(gv_st_builder *b, const gv_dit *m, const gv_model_config *cfg, const gv_train_state *s,
+                      int adapters_only);
 
 /* train_options.c: the options that decide a run's steps, as one line (checkpoint metadata
  * "training"); their checks; the draws of clip b of a step: timestep, weights and context in

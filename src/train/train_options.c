@@ -20,7 +20,7 @@ void gv_train_defaults(gv_train_options *o, gv_objective objective)
     o->lr = pre ? 3e-4 : 1e-4;           /* fine-tuning: the paper's AdamW 1e-4 (4.1) */
     o->min_lr = pre ? 3e-5 : 1e-4;
     o->warmup = pre ? 100 : 0;
-    o->cosine = pre;
+    o->lr_schedule = pre ? GV_LR_COSINE : GV_LR_CONSTANT;
     o->weight_decay = 0.01;              /* PyTorch's AdamW default, as DiffSynth trains */
     o->clip_norm = 1.0;                  /* the authors' DeepSpeed config (reference 1.5) */
     o->checkpoint_every = 250;
@@ -40,14 +40,19 @@ long gv_train_latent_warmup(const gv_train_options *o)
     return s_w > 0 ? s_w : 1;
 }
 
-/* The options that decide which steps are taken: a resumed run must have the same. */
+/* The options that decide which steps are taken: a resumed run must have the same. The
+ * schedule reads "cosine=0" (constant) or "cosine=1" as it did before the linear decay existed,
+ * so older checkpoints resume; the linear decay reads "schedule=linear". */
 void gv_train_options_text(const gv_train_options *o, char *out, size_t size)
 {
+    const char *schedule = o->lr_schedule == GV_LR_LINEAR   ? "schedule=linear"
+                           : o->lr_schedule == GV_LR_COSINE ? "cosine=1"
+                                                            : "cosine=0";
     snprintf(out, size,
-             "objective=%s steps=%ld batch=%d lr=%g min_lr=%g warmup=%ld cosine=%d weight_decay=%g clip_norm=%g "
+             "objective=%s steps=%ld batch=%d lr=%g min_lr=%g warmup=%ld %s weight_decay=%g clip_norm=%g "
              "seed=%llu shift=%g t_max=%g curriculum=%d n=%d:%d p_w=%g progressive=%d lambda=%g tau_p=%g S_w=%ld fresh_camera=%d render_context=%g crop=%dx%d relative_loss=%d",
              o->objective == GV_OBJECTIVE_PRETRAIN ? "pretrain" : "finetune", o->steps, o->batch, o->lr, o->min_lr,
-             o->warmup, o->cosine, o->weight_decay, o->clip_norm, (unsigned long long)o->seed, o->shift, o->t_max,
+             o->warmup, schedule, o->weight_decay, o->clip_norm, (unsigned long long)o->seed, o->shift, o->t_max,
              o->curriculum, o->n_min, o->n_max, o->p_w, o->progressive, o->lambda, o->tau_p, gv_train_latent_warmup(o),
              o->fresh_camera, o->render_context, o->crop_h, o->crop_w, o->relative_loss);
 }
@@ -64,6 +69,7 @@ int gv_train_check_options(const gv_train_options *o)
 {
     if (o->steps < 1 || o->batch < 1 || o->checkpoint_every < 1 || o->stop_after < 0 || o->warmup < 0)
         return gv_fail("training: steps, batch and the checkpoint interval must be positive");
+    if ((unsigned)o->lr_schedule > GV_LR_LINEAR) return gv_fail("training: unknown learning-rate schedule %d", (int)o->lr_schedule);
     if (!(o->lr > 0) || o->min_lr < 0 || o->weight_decay < 0 || o->clip_norm < 0)
         return gv_fail("training: the learning rate must be positive, the other rates not negative");
     if (!(o->t_max > 0 && o->t_max <= 1) || !(o->shift > 0) || !(o->p_w > 0 && o->p_w < 1) || o->n_max <= o->n_min ||

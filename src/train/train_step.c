@@ -26,12 +26,52 @@ void gv_objective_vace(const gv_clip_latents *l, int renders, float *out)
         memset(out + ((int64_t)b * l->vace_dim + l->z_dim) * plane, 0, (size_t)(l->z_dim * plane) * sizeof(float));
 }
 
-/* mean |x_t - t v - z0*|: the progressive loss's value, also shown when its weight is 0. */
-static double latent_l1(const float *x_t, const float *v, const float *z0, float t, int64_t n)
+/* mean |x_t - t v - z0*| over the latent where mask is 1 (everywhere without a mask): the
+ * progressive loss's value, also shown when its weight is 0. */
+static double latent_l1(const float *x_t, const float *v, const float *z0, const float *mask, float t, int64_t n)
 {
-    double sum = 0;
-    for (int64_t i = 0; i < n; i++) sum += fabsf(x_t[i] - t * v[i] - z0[i]);
-    return n ? sum / (double)n : 0;
+    double sum = 0, count = 0;
+    for (int64_t i = 0; i < n; i++)
+        if (!mask || mask[i] != 0) sum += fabsf(x_t[i] - t * v[i] - z0[i]), count++;
+    return count ? sum / count : 0;
+}
+
+/* Frames without ground truth (the clip's target_mask, docs/TRAINING.md "Frames without
+ * ground truth"): a 0/1 tensor of the latent's shape, 0 on the latent frames that have none,
+ * and the share of the latent it keeps. NULL (share 1) when every frame has ground truth, so
+ * such clips take exactly the computation they always did. */
+static gv_tensor *target_mask(gv_graph *g, const gv_clip_latents *l, const int shape[5], double *share)
+{
+    *share = 1.0;
+    if (!gv_clip_latents_masked(l)) return NULL;
+    gv_tensor *m = gv_tensor_new(g, 5, shape);
+    if (!m) return NULL;
+    const int64_t plane = (int64_t)l->lh * l->lw;
+    int64_t kept = 0, i = 0;
+    for (int b = 0; b < l->batch; b++)
+        for (int c = 0; c < l->z_dim; c++)
+            for (int t = 0; t < l->latent_frames; t++, i += plane) {
+                float keep = l->no_target[b * l->latent_frames + t] ? 0.0f : 1.0f;
+                for (int64_t k = 0; k < plane; k++) m->data[i + k] = keep;
+                kept += keep != 0.0f ? plane : 0;
+            }
+    *share = (double)kept / (double)m->numel;
+    if (kept == 0) {
+        gv_fail("clip n%d: no latent frame has ground truth", l->n);
+        return NULL;
+    }
+    return m;
+}
+
+/* The mean squared (or absolute) error over the latent frames with ground truth: pred and
+ * target are multiplied by the mask, so a masked frame adds nothing to the loss or to the
+ * gradient, whatever its target holds, and the mean is taken over the frames kept. */
+static gv_tensor *masked_loss(gv_graph *g, gv_tensor *pred, gv_tensor *target, gv_tensor *mask, double share,
+                              int squared)
+{
+    if (mask) pred = gv_mul(g, pred, mask), target = gv_mul(g, target, mask);
+    gv_tensor *loss = squared ? gv_l2_loss(g, pred, target, NULL) : gv_l1_loss(g, pred, target, NULL);
+    return mask ? gv_scale(g, loss, (float)(1.0 / share)) : loss;
 }
 
 /* The network's inputs besides the latent (NULL where the config has no such part). */
@@ -71,7 +111,9 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
     gv_dit_inputs in = gv_dit_inputs_default();
     gv_tensor *x_t = gv_tensor_new(g, 5, shape), *target = gv_tensor_new(g, 5, shape);
     int rc = x_t && target ? side_inputs(m, g, l, obj == GV_OBJECTIVE_FINETUNE || d->renders, &in) : -1;
-    gv_tensor *v = NULL, *loss = NULL, *fm = NULL;
+    gv_tensor *v = NULL, *loss = NULL, *fm = NULL, *mask = NULL;
+    double share = 1.0;
+    if (rc == 0 && gv_clip_latents_masked(l) && !(mask = target_mask(g, l, shape, &share))) rc = gv_fail_context("clip n%d", l->n);
     if (rc == 0) {
         gv_objective_inputs(l, obj, d->t, eps, x_t->data, target->data);
         in.latent = x_t;
@@ -86,11 +128,11 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
             if (known) gv_flow_residual_from_noise(l->z_corrupt, eps, known->numel, known->data);
             v = known ? gv_sub(g, known, v) : NULL;
         }
-        fm = gv_l2_loss(g, v, target, NULL); /* paper eq. 7 as a mean over the latent */
+        fm = masked_loss(g, v, target, mask, share, 1); /* paper eq. 7 as a mean over the latent */
         loss = gv_scale(g, fm, (float)(scale * d->w_cur * d->w_t));
         if (d->w_lat > 0) { /* paper eq. 8: L1(x_t - t v, z0*) */
             gv_tensor *z0 = gv_tensor_from(g, 5, shape, l->z_clean);
-            gv_tensor *lat = gv_l1_loss(g, gv_sub(g, x_t, gv_scale(g, v, d->t)), z0, NULL);
+            gv_tensor *lat = masked_loss(g, gv_sub(g, x_t, gv_scale(g, v, d->t)), z0, mask, share, 0);
             loss = gv_add(g, loss, gv_scale(g, lat, (float)(scale * d->w_cur * d->w_lat)));
         }
         if (!loss) rc = gv_fail_context("clip n%d", l->n);
@@ -98,7 +140,7 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
     if (rc == 0 && backward) rc = gv_backward(g, loss);
     if (rc == 0 && out) {
         out->fm = fm->data[0];
-        out->latent = latent_l1(x_t->data, v->data, l->z_clean, d->t, x_t->numel);
+        out->latent = latent_l1(x_t->data, v->data, l->z_clean, mask ? mask->data : NULL, d->t, x_t->numel);
         out->loss = d->w_cur * (d->w_t * out->fm + d->w_lat * out->latent);
     }
     gv_graph_set_grad(g, was);

@@ -183,6 +183,8 @@ static int validate(gv_dit *m, loop_ctx *x, const gv_train_state *st, gv_progres
                 v.all_gain_db);
         fflush(x->val_log);
     }
+    if (x->o->on_validation && x->o->on_validation(x->o->on_validation_ctx, m, st->step, &v))
+        return gv_fail_context("step %ld", st->step);
     return 0;
 }
 
@@ -213,7 +215,7 @@ int gv_train_run(gv_dit *m, const gv_model_config *save_cfg, const gv_latent_set
     long start = st.step, end = o->stop_after > 0 && o->stop_after < o->steps ? o->stop_after : o->steps;
     loop_ctx x;
     int rc = ctx_init(&x, data, o, start > 0);
-    gv_lr_schedule sched = {o->cosine ? GV_LR_COSINE : GV_LR_CONSTANT, o->lr, o->min_lr, o->warmup, o->steps};
+    gv_lr_schedule sched = {o->lr_schedule, o->lr, o->min_lr, o->warmup, o->steps};
     int curriculum = x.difficulty != NULL;
     gv_progress bar;
     gv_progress_start(&bar, o->objective == GV_OBJECTIVE_PRETRAIN ? "pretrain" : "train", end > start ? end - start : 0);

@@ -81,6 +81,21 @@ check "resumed fine-tuning is bit-exact" same_data ft.safetensors ft2.safetensor
 expect 1 "resume with other options" -- "$G" train "${FT[@]}" --out ft2.safetensors --resume --lr 3e-4
 one_line "written with other training options"
 
+# The learning-rate schedule: constant by default (recorded as before), a linear decay to 0
+# logged step by step (lr (S - s) / S at 0-based step s), recorded, other weights, resumed.
+check "constant schedule recorded as before" grep -q "min_lr=0.0001 warmup=0 cosine=0" <(meta ft.safetensors training)
+expect 2 "unknown schedule" -- "$G" train "${FT[@]}" --out x.safetensors --lr-schedule step
+one_line "expected constant, cosine or linear"
+expect 0 "linear decay" -- "$G" train "${FT[@]}" --out lin.safetensors --lr-schedule linear --log lin.tsv
+check "linear decay logged" test "$(cut -f3 lin.tsv | tr '\n' ' ')" = "lr 0.0001 7.5e-05 5e-05 2.5e-05 "
+check "linear decay recorded" grep -q "min_lr=0 warmup=0 schedule=linear" <(meta lin.safetensors training)
+check "linear decay trains other weights" differ ft.safetensors lin.safetensors
+expect 0 "linear decay, interrupted" -- "$G" train "${FT[@]}" --out lin2.safetensors --lr-schedule linear --stop-after 2
+expect 0 "linear decay, resumed" -- "$G" train "${FT[@]}" --out lin2.safetensors --lr-schedule linear --resume
+check "resumed linear decay is bit-exact" same_data lin.safetensors lin2.safetensors
+expect 0 "cosine decay" -- "$G" train "${FT[@]}" --out cos.safetensors --lr-schedule cosine --log cos.tsv
+check "cosine decay logged" test "$(cut -f3 cos.tsv | tr '\n' ' ')" = "lr 0.0001 8.54e-05 5e-05 1.46e-05 "
+
 # Validation on the eval split (scene B, n = 6 and 8) at steps 0, 2 and 4 leaves the run alone.
 expect 2 "val log without clips" -- "$G" train "${FT[@]}" --out x.safetensors --val-log v.tsv
 one_line "need --val-clips"

@@ -1,0 +1,64 @@
+/* Adapting the restorer to one scene (`gaussvid adapt`; DESIGN.md section 12; docs/ADAPT.md):
+ * the scene's internal pairs (internal_pairs.h) are built, part of them held back; the adapters
+ * of a cross-scene checkpoint (LoRA and the camera encoder) are fine-tuned on the rest with a
+ * learning rate that decays to zero, keeping the step the held-back pairs liked best; the
+ * held-back pairs are then restored as `restore` would restore the scene's renders, and the
+ * gate opens only when that beats their renders. The result is a scene checkpoint
+ * (scene_adapt.h) for that scene and interval, which `restore` and `eval` honour.
+ *
+ * Everything is kept in a work folder (default OUT.work): the internal pairs and their latent
+ * cache (pairs/), the fine-tuning's resumable checkpoint, logs and best adapters, so an
+ * interrupted run continues where it stopped and gives the result of an uninterrupted one. */
+#ifndef GAUSSVID_ADAPT_H
+#define GAUSSVID_ADAPT_H
+
+#include "gaussvid/internal_pairs.h"
+#include "gaussvid/restore.h"
+#include "gaussvid/scene_adapt.h"
+
+typedef struct {
+    const char *scene_dir;
+    int interval;                    /* n: the scene's training views are frames 0, n, 2n, ... */
+    const char *base;                /* the cross-scene checkpoint (models/gaussvid-small.safetensors) */
+    const char *config;              /* the network the base must be (preset or file; NULL: "small") */
+    const char *out;                 /* the scene checkpoint */
+    const char *work_dir;            /* NULL: out + ".work" */
+    int downscale;                   /* scene images: 1, 2, 4, 8 (as splat train) */
+    int iters;                       /* the artifact simulator's iterations per subset */
+    const gv_artifact_simulator *simulator; /* NULL: sparse 3DGS */
+    int hold_every;                  /* internal clips 1, 1 + K, 1 + 2K, ... are held back */
+    gv_train_options train;          /* steps, batch, lr and its schedule, t_max, crop, seed, val_every,
+                                        stop_after; the rest is set by gv_adapt_scene */
+    gv_sampler sampler;              /* how the gate restores the held-back pairs: as restore would */
+    gv_compose compose;
+    double gate_margin_db;           /* the gate opens when the held-back PSNR change exceeds this */
+} gv_adapt_options;
+
+/* The defaults (docs/ADAPT.md): 8000 iterations, every 3rd clip held back, 300 steps of 2
+ * clips at lr 5e-4 decaying linearly to 0, t ~ U[0, 0.1], no curriculum, no progressive loss,
+ * validation every 50 steps; the gate with restore's default sampler and composition, margin 0. */
+void gv_adapt_defaults(gv_adapt_options *o);
+
+typedef struct {
+    int done;                        /* 1: the scene checkpoint exists; 0: stopped early (stop_after) */
+    int already;                     /* 1: it existed before the call: nothing was done */
+    char work_dir[4096];
+    gv_internal_result pairs;
+    gv_scene_adaptation adaptation;  /* what the checkpoint records (when done) */
+    gv_adapt_best best;
+    gv_train_report train;
+} gv_adapt_report;
+
+/* Adapts the base to the scene at the interval and writes o->out (atomically), or continues an
+ * interrupted adaptation. Fails with one line naming the input on a scene with too few
+ * training views, a base of another network than o->config, a base whose VAE packs several
+ * frames into a latent frame, a missing file. */
+int gv_adapt_scene(const gv_adapt_options *o, gv_adapt_report *r);
+
+/* The gate's measurement (adapt_gate.c): restores every clip of a dataset folder's latent set
+ * with the network and measures the intermediate frames with ground truth, restored and as
+ * rendered: a's gate_frames, gate_psnr_* and gate_ssim_*. */
+int gv_adapt_measure(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_latent_set *set, const gv_sampler *s,
+                     gv_compose compose, gv_scene_adaptation *a);
+
+#endif

@@ -1,0 +1,67 @@
+/* Scene-internal pairs (DESIGN.md section 12; docs/FORMATS-DATASET.md "Scene-internal pairs"):
+ * the supervision a sparse scene holds about itself, for adapting the restorer to it.
+ *
+ * With interval n the scene's training views are frames 0, n, 2n, ... (T = 1 + (F - 1) / n of
+ * them; every other frame is held out and never read). Every other training view makes a
+ * subset: parity 0 holds views 0, 2n, 4n, ..., parity 1 holds n, 3n, 5n, .... The artifact
+ * simulator trains on each subset (interval 2n, first view p n) and renders the views between
+ * its own. Interior training view k (1 <= k <= T - 2) makes one clip, rendered by the subset of
+ * parity (k - 1) mod 2:
+ *   frame 0  view (k - 1) n, clean (a training view of the subset)
+ *   frame 1  the render of the held-out frame at the uniform position of a 2n clip (about
+ *            (k - 1/2) n): no ground truth, masked
+ *   frame 2  the render of view k n, left out of the subset: its ground truth is known
+ *   frame 3  the render of the held-out frame at about (k + 1/2) n: masked
+ *   frame 4  view (k + 1) n, clean
+ * so every interior training view is left out once, and the only frames with ground truth are
+ * training views. The clips are those of a dataset folder (clip.c, manifest.c) with interval
+ * 2n, the subset's first view as "offset" and the mask as "target_mask" (dataset.h). */
+#ifndef GAUSSVID_INTERNAL_PAIRS_H
+#define GAUSSVID_INTERNAL_PAIRS_H
+
+#include <stdint.h>
+
+#include "gaussvid/dataset.h"
+#include "gaussvid/scene.h"
+
+/* Training views a scene needs at its interval: three clips, so that part of them can be held
+ * back for validation and each subset has at least two views. */
+#define GV_INTERNAL_MIN_VIEWS 5
+
+typedef struct {
+    int view;                        /* k: the left-out training view is frame k n */
+    int parity;                      /* the subset that renders the clip: views of parity p */
+    int frames[GV_CLIP_FRAMES];      /* frame indices in the scene */
+} gv_internal_clip;
+
+/* Training views of a scene of n_frames frames at interval n: 1 + (n_frames - 1) / n. */
+int gv_internal_views(int n_frames, int interval);
+/* Checks that a scene of n_frames frames gives internal pairs at interval n (n >= 2, at least
+ * GV_INTERNAL_MIN_VIEWS training views); the message says how many views and frames it needs. */
+int gv_internal_check(int n_frames, int interval);
+/* The clips (T - 2, in order of k) into clips (room for n_frames rows). */
+int gv_internal_plan(int n_frames, int interval, gv_internal_clip *clips, int *count);
+
+typedef struct {
+    int interval;                    /* n */
+    int iters;                       /* the simulator's iterations per subset */
+    uint64_t seed;                   /* subset p trains with gv_run_seed(seed, scene, 2n) ^ (p * golden) */
+    const gv_artifact_simulator *simulator; /* NULL: sparse 3DGS (gv_artifact_3dgs) */
+    const char *out_dir;             /* the dataset folder written */
+} gv_internal_options;
+
+typedef struct {
+    int clips;                       /* clips in the folder */
+    int subsets_trained;             /* subsets trained by this call (0, 1 or 2; 0 when resumed whole) */
+    double psnr, ssim;               /* mean over the left-out views of their renders */
+    double seconds;
+} gv_internal_result;
+
+/* Builds, or resumes, the internal clips of a loaded scene in o->out_dir: one manifest run
+ * (scene, 2n, split train) whose record scores the left-out views' renders. A subset whose
+ * clips are all present (written by the same options) is not trained again; the manifest is
+ * written last, so a folder it lists is complete. A folder built with other options is
+ * refused. Progress: one line per subset and the simulator's own bar. */
+int gv_internal_build(const gv_scene *scene, const gv_internal_options *o, gv_internal_result *result);
+
+#endif

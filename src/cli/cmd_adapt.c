@@ -1,0 +1,94 @@
+/* gaussvid adapt --scene DIR --interval n --base CKPT --out SCENE_CKPT: adapts the restorer to
+ * one scene from the scene's own internal pairs, keeping the best step and deciding by the
+ * held-back pairs whether to restore at all (the gate). docs/ADAPT.md. */
+#include <stdio.h>
+#include <string.h>
+
+#include "cli/commands.h"
+#include "gaussvid/adapt.h"
+#include "gaussvid/core.h"
+
+static void print_summary(const char *out, const gv_adapt_report *r)
+{
+    const gv_scene_adaptation *a = &r->adaptation;
+    printf("%s: %s n=%d: %d internal clips trained on, %d held back; step %ld kept (held-back latent gain %+.3f dB)\n",
+           out, a->scene, a->interval, a->train_clips, a->held_back, a->best_step, a->val_gain_db);
+    printf("gate %s: held-back frames %.2f dB / %.4f as rendered, %.2f dB / %.4f restored (%+.2f dB over %d frames, "
+           "margin %+.2f dB)%s\n",
+           a->gate_open ? "open" : "closed", a->gate_psnr_base, a->gate_ssim_base, a->gate_psnr_restored,
+           a->gate_ssim_restored, gv_scene_gate_change(a), a->gate_frames, a->gate_margin_db,
+           a->gate_open ? ": restore and eval will restore this scene's renders"
+                        : ": restore and eval will leave this scene's renders unchanged");
+    if (!r->already)
+        printf("seconds: pairs %.1f, latents %.1f, fine-tuning %.1f, gate %.1f\n", a->seconds_pairs, a->seconds_latents,
+               a->seconds_train, a->seconds_gate);
+}
+
+int cmd_adapt(int argc, char **argv)
+{
+    gv_adapt_options o;
+    gv_adapt_defaults(&o);
+    const char *schedule = gv_lr_kind_name(o.train.lr_schedule), *crop = NULL, *sampler = GV_SAMPLER_DEFAULT;
+    int steps = (int)o.train.steps, val_every = (int)o.train.val_every, stop_after = 0, seed = 0;
+    const gv_flag flags[] = {
+        {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (COLMAP sparse/0 or transforms.json)", 1},
+        {"interval", GV_FLAG_INT, &o.interval, "N", "its training views are frames 0, N, 2N, ...: the renders to restore are of this n", 1},
+        {"base", GV_FLAG_STRING, &o.base, "FILE", "the cross-scene checkpoint to adapt (e.g. models/gaussvid-small.safetensors)", 1},
+        {"out", GV_FLAG_STRING, &o.out, "FILE", "the scene checkpoint (adapters and gate); FILE.work keeps the work", 1},
+        {"work", GV_FLAG_STRING, &o.work_dir, "DIR", "the work folder (default FILE.work): internal pairs, latents, resumable training", 0},
+        {"config", GV_FLAG_STRING, &o.config, "PRESET|FILE", "the network the base must be (default small)", 0},
+        {"iters", GV_FLAG_INT, &o.iters, "N", "3DGS iterations of each internal subset model (default 8000, as dataset build)", 0},
+        {"downscale", GV_FLAG_INT, &o.downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
+        {"hold-every", GV_FLAG_INT, &o.hold_every, "K", "hold back internal clips 1, 1 + K, 1 + 2K, ... for validation (default 3)", 0},
+        {"steps", GV_FLAG_INT, &steps, "N", "fine-tuning steps (default 300)", 0},
+        {"batch", GV_FLAG_INT, &o.train.batch, "B", "clips per step (default 2)", 0},
+        {"lr", GV_FLAG_DOUBLE, &o.train.lr, "LR", "AdamW learning rate at the start (default 5e-4)", 0},
+        {"lr-schedule", GV_FLAG_STRING, &schedule, "NAME", "linear (default) or cosine decay to 0, or constant", 0},
+        {"t-max", GV_FLAG_DOUBLE, &o.train.t_max, "T", "timesteps t ~ U[0, T] (default 0.1)", 0},
+        {"crop", GV_FLAG_STRING, &crop, "RxC", "train on random windows of R x C tokens (default: whole clips)", 0},
+        {"val-every", GV_FLAG_INT, &val_every, "K", "validate on the held-back clips every K steps (default 50)", 0},
+        {"gate-margin", GV_FLAG_DOUBLE, &o.gate_margin_db, "DB", "restore only when the held-back PSNR gains more than DB (default 0)", 0},
+        {"sampler", GV_FLAG_STRING, &sampler, "NAME", "the sampler the gate restores with (default " GV_SAMPLER_DEFAULT ", restore's)", 0},
+        {"seed", GV_FLAG_INT, &seed, "S", "seed of the internal 3DGS runs and the fine-tuning (default 0)", 0},
+        {"stop-after", GV_FLAG_INT, &stop_after, "N", "stop the fine-tuning after step N (run again to continue)", 0},
+    };
+    const gv_command_spec spec = {
+        "adapt", NULL, "adapt the restorer to one scene from its own training views",
+        "Builds the scene's internal pairs (sparse 3DGS on every other training view, rendered at\n"
+        "the views it left out: corrupted frames with known ground truth, docs/FORMATS-DATASET.md),\n"
+        "holds back a third of them, fine-tunes the base's adapters (LoRA, camera encoder) on the\n"
+        "rest with a learning rate decaying to 0, keeps the step the held-back pairs liked best,\n"
+        "then restores the held-back pairs as 'restore' would: the gate opens only when they gain.\n"
+        "The scene checkpoint holds the adapters and the gate; 'restore' and 'eval' use it with\n"
+        "--ckpt and leave the renders unchanged when the gate is closed. Run again to resume.\n"
+        "See docs/ADAPT.md.",
+        flags, sizeof flags / sizeof flags[0], 0, 0};
+    int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
+    if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
+    if (steps < 1 || o.train.batch < 1 || val_every < 1 || stop_after < 0 || seed < 0 || o.interval < 2 ||
+        o.iters < 1 || o.hold_every < 2 || !(o.train.lr > 0) || !(o.train.t_max > 0 && o.train.t_max <= 1)) {
+        fprintf(stderr, "gaussvid adapt: --interval needs n >= 2, --hold-every K >= 2; --steps, --batch, --iters, "
+                        "--val-every and --lr must be positive, --t-max in (0, 1], --seed and --stop-after not negative\n");
+        return 2;
+    }
+    if (gv_lr_kind_from_name(schedule, &o.train.lr_schedule) ||
+        gv_sampler_configure(sampler, 0, 0, 0, 0, 0, 0, &o.sampler)) {
+        fprintf(stderr, "gaussvid adapt: %s\n", gv_last_error());
+        return 2;
+    }
+    if (crop && gv_parse_crop("adapt", crop, &o.train.crop_h, &o.train.crop_w)) return 2;
+    o.train.steps = steps, o.train.val_every = val_every, o.train.stop_after = stop_after;
+    o.train.seed = (uint64_t)seed;
+    o.train.min_lr = o.train.lr_schedule == GV_LR_CONSTANT ? o.train.lr : 0.0;
+
+    gv_adapt_report r;
+    if (gv_adapt_scene(&o, &r)) return gv_report_failure();
+    if (!r.done) {
+        printf("%s: fine-tuning stopped at step %ld of %ld; run the same command to continue (work in %s)\n", o.out,
+               r.train.end_step, o.train.steps, r.work_dir);
+        return 0;
+    }
+    if (r.already) printf("%s: already adapted (remove it to adapt again; the work in %s is reused)\n", o.out, r.work_dir);
+    print_summary(o.out, &r);
+    return 0;
+}

@@ -1,0 +1,45 @@
+/* Which frames make the scene-internal clips (internal_pairs.h): interior training view k is
+ * left out of the subset of the other parity and sits in the middle of a clip whose anchors
+ * are its two neighbouring training views, with the uniform positions of a 2n clip (the
+ * sampling of `dataset build`) around it. */
+#include "gaussvid/core.h"
+#include "gaussvid/internal_pairs.h"
+
+int gv_internal_views(int n_frames, int interval)
+{
+    return interval >= 1 && n_frames >= 1 ? 1 + (n_frames - 1) / interval : 0;
+}
+
+int gv_internal_check(int n_frames, int interval)
+{
+    if (interval < 2) return gv_fail("interval %d: scene-internal pairs need n >= 2", interval);
+    int views = gv_internal_views(n_frames, interval);
+    if (views < GV_INTERNAL_MIN_VIEWS)
+        return gv_fail("%d frames give %d training views at n = %d (frames 0, %d, ...); scene-internal pairs "
+                       "need at least %d (at least %d frames)",
+                       n_frames, views, interval, interval, GV_INTERNAL_MIN_VIEWS,
+                       (GV_INTERNAL_MIN_VIEWS - 1) * interval + 1);
+    return 0;
+}
+
+int gv_internal_plan(int n_frames, int interval, gv_internal_clip *clips, int *count)
+{
+    *count = 0;
+    if (gv_internal_check(n_frames, interval)) return -1;
+    int views = gv_internal_views(n_frames, interval);
+    for (int k = 1; k <= views - 2; k++) {
+        gv_internal_clip *c = &clips[*count];
+        c->view = k;
+        c->parity = (k - 1) % 2;
+        /* the subset's frames counted from its first view: anchors 2n apart, as a 2n clip */
+        int first = c->parity * interval;
+        if (gv_clip_frames(n_frames - first, 2 * interval, 1, GV_SAMPLING_UNIFORM, (k - 1) * interval - first, NULL,
+                           c->frames))
+            return gv_fail_context("internal clip of view %d (n = %d)", k, interval);
+        for (int f = 0; f < GV_CLIP_FRAMES; f++) c->frames[f] += first;
+        if (c->frames[2] != k * interval) /* the middle of a uniform 2n clip is s + n: exact */
+            return gv_fail("internal clip of view %d (n = %d): middle frame %d", k, interval, c->frames[2]);
+        (*count)++;
+    }
+    return 0;
+}

@@ -1,0 +1,191 @@
+/* `gaussvid adapt` as a library call (adapt.h; docs/ADAPT.md): check the inputs, build the
+ * scene's internal pairs, fine-tune the base's adapters on them keeping the best step, measure
+ * the gate on the held-back pairs and write the scene checkpoint. Each stage resumes from the
+ * work folder; the checkpoint is written last, so its presence means the adaptation is done. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/adapt.h"
+#include "gaussvid/core.h"
+
+void gv_adapt_defaults(gv_adapt_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->downscale = 1;
+    o->iters = 8000;                  /* paper 3.2, as `dataset build` */
+    o->hold_every = 3;
+    gv_train_defaults(&o->train, GV_OBJECTIVE_FINETUNE);
+    o->train.steps = 300;
+    o->train.batch = 2;
+    o->train.lr = 5e-4;
+    o->train.min_lr = 0.0;
+    o->train.lr_schedule = GV_LR_LINEAR; /* the last updates at a vanishing rate (docs/TRAINING.md) */
+    o->train.t_max = 0.1;             /* the restorer's t0 = 0.05 inside; where the base learns (RESULTS) */
+    o->train.curriculum = 0;          /* one interval: nothing to order */
+    o->train.progressive = 0;
+    o->train.val_every = 50;
+    o->sampler = gv_sampler_default();
+    gv_compose_from_name(GV_COMPOSE_DEFAULT, &o->compose);
+    o->gate_margin_db = 0.0;
+}
+
+/* The base: a checkpoint (not a scene's) of the network o->config names, whose VAE gives each
+ * frame its own latent frame, so that the masked frames of the internal clips leave the
+ * left-out view's latent frame supervised. */
+static int check_base(const gv_adapt_options *o)
+{
+    gv_model_config base, want;
+    gv_train_state s;
+    if (gv_checkpoint_read_info(o->base, &base, &s)) return -1;
+    if (!strcmp(s.kind, GV_SCENE_CHECKPOINT_KIND))
+        return gv_fail("%s: a scene checkpoint; adapt starts from a cross-scene one (e.g. "
+                       "models/gaussvid-small.safetensors)", o->base);
+    const char *preset = o->config ? o->config : "small";
+    if (gv_model_config_load(&want, preset)) return -1;
+    if (!gv_config_same_network(&base, &want)) {
+        char have[160], need[160];
+        gv_config_describe(&base, have, sizeof have);
+        gv_config_describe(&want, need, sizeof need);
+        return gv_fail("%s: a checkpoint of another network (%s) than %s (%s)", o->base, have, preset, need);
+    }
+    if (base.vae.temporal_factor != 1)
+        return gv_fail("%s: its VAE packs %d frames into a latent frame; the internal pairs mask frames 1 and 3 "
+                       "and need one latent frame per frame (temporal factor 1, as the small preset)",
+                       o->base, base.vae.temporal_factor);
+    return 0;
+}
+
+/* The scene at its interval, and frames the network takes. */
+static int load_scene(const gv_adapt_options *o, const gv_model_config *cfg, gv_scene *scene)
+{
+    gv_scene_options so = {.downscale = o->downscale};
+    if (gv_scene_load(o->scene_dir, &so, scene)) return -1;
+    int rc = gv_internal_check(scene->n_frames, o->interval) ? gv_fail_context("%s", o->scene_dir) : 0;
+    int step = cfg->vae.spatial_factor * cfg->dit.patch_size[1];
+    if (rc == 0 && (scene->cameras[0].width % step || scene->cameras[0].height % step))
+        rc = gv_fail("%s: frames of %dx%d; the network takes multiples of %d pixels (try --downscale)", o->scene_dir,
+                     scene->cameras[0].width, scene->cameras[0].height, step);
+    if (rc) gv_scene_free(scene);
+    return rc;
+}
+
+typedef struct {
+    gv_restorer base;                /* the base: its network (adapters trained here), VAE, state */
+    gv_latent_set train, held;
+} adapt_run;
+
+static void run_free(adapt_run *x)
+{
+    gv_restorer_free(&x->base);
+    gv_latent_set_free(&x->train);
+    gv_latent_set_free(&x->held);
+}
+
+/* The base's network (every tensor, its adapters to be trained) and VAE; the internal pairs'
+ * latents split into training and held-back clips. */
+static int load_model_and_data(const gv_adapt_options *o, const char *pairs, adapt_run *x)
+{
+    gv_latent_set all;
+    if (gv_restorer_load(o->base, &x->base) || gv_dit_set_train_mode(&x->base.net, GV_DIT_FINETUNE)) return -1;
+    if (gv_latent_set_load(pairs, "train", x->base.vae_path, &x->base.vae, &x->base.cfg, &all)) return -1;
+    return gv_latent_set_hold_back(&all, o->hold_every, &x->train, &x->held);
+}
+
+/* The training state the scene checkpoint records: the fine-tuning's, naming the base. */
+static int scene_state(const gv_adapt_options *o, const char *final, gv_train_state *s)
+{
+    gv_model_config cfg;
+    if (gv_checkpoint_read_info(final, &cfg, s)) return -1;
+    snprintf(s->base, sizeof s->base, "%s", o->base);
+    return 0;
+}
+
+static int write_checkpoint(const gv_adapt_options *o, const char *work, adapt_run *x, gv_adapt_report *r)
+{
+    char final[4200];
+    gv_train_state s;
+    gv_scene_adaptation *a = &r->adaptation;
+    snprintf(final, sizeof final, "%s/train.safetensors", work);
+    if (scene_state(o, final, &s) || gv_file_checksum(o->base, a->base_checksum, sizeof a->base_checksum)) return -1;
+    return gv_scene_checkpoint_save(o->out, &x->base.net, &x->base.cfg, &s, a);
+}
+
+static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x, gv_adapt_report *r)
+{
+    gv_scene_adaptation *a = &r->adaptation;
+    char pairs[4200], path[4300];
+    snprintf(pairs, sizeof pairs, "%s/pairs", work);
+    gv_scene scene;
+    if (gv_checkpoint_read_info(o->base, &x->base.cfg, &x->base.state) || gv_mkdirs(work) ||
+        load_scene(o, &x->base.cfg, &scene))
+        return -1;
+    double t = gv_now();
+    gv_internal_options po = {o->interval, o->iters, o->train.seed, o->simulator, pairs};
+    int rc = gv_internal_build(&scene, &po, &r->pairs);
+    if (rc == 0) gv_scene_name_of(scene.dir, a->scene, sizeof a->scene);
+    gv_scene_free(&scene);
+    if (rc) return -1;
+    a->seconds_pairs = gv_now() - t, t = gv_now();
+    if (load_model_and_data(o, pairs, x)) return -1;
+    a->seconds_latents = gv_now() - t, t = gv_now();
+
+    gv_train_options to = o->train;
+    snprintf(path, sizeof path, "%s/train.safetensors", work);
+    char log[4300], val_log[4300], best_path[4300];
+    snprintf(log, sizeof log, "%s/train.tsv", work);
+    snprintf(val_log, sizeof val_log, "%s/val.tsv", work);
+    snprintf(best_path, sizeof best_path, "%s/best.safetensors", work);
+    to.objective = GV_OBJECTIVE_FINETUNE, to.resume = 1, to.checkpoint_every = to.val_every;
+    to.out = path, to.log_path = log, to.val_log = val_log;
+    gv_train_state meta;
+    memset(&meta, 0, sizeof meta);
+    snprintf(meta.kind, sizeof meta.kind, "finetune");
+    snprintf(meta.vae, sizeof meta.vae, "%s", x->base.vae_path);
+    gv_checkpoint_vae_checksum(&x->base.vae, meta.vae_checksum, sizeof meta.vae_checksum);
+    snprintf(meta.base, sizeof meta.base, "%s", o->base);
+    snprintf(meta.clips, sizeof meta.clips, "%s", pairs);
+    gv_train_data_text(&x->train, "train", meta.data, sizeof meta.data);
+    gv_info("adapt: %s n=%d: %d internal clips for training, %d held back; %ld steps of %d clips at lr %g (%s)",
+            a->scene, o->interval, x->train.count, x->held.count, to.steps, to.batch, to.lr,
+            gv_lr_kind_name(to.lr_schedule));
+    rc = gv_adapt_train(&x->base.net, &x->base.cfg, &x->train, &x->held, &to, &meta, best_path, &r->best, &r->train);
+    if (rc) return rc < 0 ? -1 : 0; /* 1: stopped before the last step */
+    a->seconds_train = gv_now() - t, t = gv_now();
+
+    if (gv_dit_set_train_mode(&x->base.net, GV_DIT_FROZEN)) return -1;
+    gv_info("adapt: gate: restoring the %d held-back clips with the adapters of step %ld", x->held.count, r->best.step);
+    if (gv_adapt_measure(&x->base.net, &x->base.vae, pairs, &x->held, &o->sampler, o->compose, a)) return -1;
+    a->seconds_gate = gv_now() - t;
+    a->interval = o->interval, a->iters = o->iters;
+    a->train_clips = x->train.count, a->held_back = x->held.count;
+    a->best_step = r->best.step;
+    a->val_gain_db = r->best.gain_db, a->val_loss = r->best.loss, a->val_identity = r->best.identity;
+    a->gate_margin_db = o->gate_margin_db;
+    a->gate_open = gv_scene_gate_change(a) > o->gate_margin_db;
+    if (write_checkpoint(o, work, x, r)) return -1;
+    r->done = 1;
+    return 0;
+}
+
+int gv_adapt_scene(const gv_adapt_options *o, gv_adapt_report *r)
+{
+    memset(r, 0, sizeof *r);
+    if (!o->scene_dir || !o->base || !o->out) return gv_fail("adapt: a scene, a base checkpoint and an output are needed");
+    if (o->interval < 2 || o->iters < 1 || o->hold_every < 2)
+        return gv_fail("adapt: interval %d, iterations %d, hold-back interval %d: need n >= 2, iterations >= 1 and "
+                       "every >= 2", o->interval, o->iters, o->hold_every);
+    if (o->work_dir) snprintf(r->work_dir, sizeof r->work_dir, "%s", o->work_dir);
+    else snprintf(r->work_dir, sizeof r->work_dir, "%s.work", o->out);
+    if (gv_file_exists(o->out)) { /* done before: its record is the report */
+        if (gv_scene_checkpoint_read(o->out, &r->adaptation)) return -1;
+        r->done = r->already = 1;
+        return 0;
+    }
+    if (check_base(o)) return -1;
+    adapt_run x;
+    memset(&x, 0, sizeof x);
+    int rc = run_stages(o, r->work_dir, &x, r);
+    run_free(&x);
+    return rc;
+}

@@ -1,0 +1,233 @@
+/* Scene checkpoints (scene_checkpoint.h; docs/ADAPT.md): the adapters of a per-scene
+ * fine-tuning with the base they apply to and the gate's measurement, and the bare adapter
+ * files a run keeps of its best step. */
+#include <errno.h>
+#include <inttypes.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/condition.h"
+#include "gaussvid/core.h"
+#include "gaussvid/scene_adapt.h"
+#include "train/train_internal.h"
+
+double gv_scene_gate_change(const gv_scene_adaptation *a) { return a->gate_psnr_restored - a->gate_psnr_base; }
+
+int gv_file_checksum(const char *path, char *out, size_t size)
+{
+    char *bytes;
+    size_t n;
+    if (gv_read_file(path, &bytes, &n)) return -1;
+    snprintf(out, size, "fnv1a64:%016" PRIx64, gv_fnv1a64(GV_FNV_OFFSET, bytes, n));
+    free(bytes);
+    return 0;
+}
+
+static int add_adapters(gv_st_builder *b, const gv_dit *m)
+{
+    int rc = 0;
+    for (int i = 0; rc == 0 && i < m->params.n; i++) {
+        const gv_tensor *t = &m->params.items[i]->t;
+        if (!gv_dit_param_is_adapter(m, t->name)) continue;
+        int64_t shape[GV_MAX_DIMS];
+        for (int k = 0; k < t->ndim; k++) shape[k] = t->shape[k];
+        rc = gv_st_add_f32(b, t->name, GV_ST_F32, shape, t->ndim, t->data);
+    }
+    return rc;
+}
+
+/* Reads every adapter of m from an open file: all must be there, with their shapes. */
+static int read_adapters(const gv_st_file *f, gv_dit *m)
+{
+    for (int i = 0; i < m->params.n; i++) {
+        gv_tensor *t = &m->params.items[i]->t;
+        if (!gv_dit_param_is_adapter(m, t->name)) continue;
+        int64_t shape[GV_MAX_DIMS];
+        for (int k = 0; k < t->ndim; k++) shape[k] = t->shape[k];
+        if (gv_st_read_f32(f, t->name, t->data, shape, t->ndim)) return -1;
+    }
+    if (gv_params_check_finite(&m->params, 0)) return gv_fail_context("%s", f->path);
+    return 0;
+}
+
+int gv_adapters_save(const char *path, const gv_dit *m, const char *const *keys, const char *const *values, int count)
+{
+    gv_st_builder b;
+    gv_st_builder_init(&b);
+    int rc = add_adapters(&b, m);
+    for (int i = 0; rc == 0 && i < count; i++) rc = gv_st_add_metadata(&b, keys[i], values[i]);
+    if (rc == 0) rc = gv_st_write(&b, path);
+    gv_st_builder_free(&b);
+    return rc ? -1 : 0;
+}
+
+int gv_adapters_load(const char *path, gv_dit *m)
+{
+    gv_st_file f;
+    if (gv_st_open(&f, path)) return -1;
+    int rc = read_adapters(&f, m);
+    gv_st_close(&f);
+    return rc;
+}
+
+/* ---- the adaptation record -------------------------------------------------------------- */
+typedef enum { FIELD_TEXT, FIELD_INT, FIELD_LONG, FIELD_DOUBLE } field_type;
+typedef struct {
+    const char *key;
+    field_type type;
+    size_t offset, size;
+} field;
+
+#define TEXT(k, m) {k, FIELD_TEXT, offsetof(gv_scene_adaptation, m), sizeof(((gv_scene_adaptation *)0)->m)}
+#define NUM(k, t, m) {k, t, offsetof(gv_scene_adaptation, m), 0}
+static const field fields[] = {
+    TEXT("scene", scene), NUM("interval", FIELD_INT, interval), NUM("iters", FIELD_INT, iters),
+    TEXT("base_checksum", base_checksum), NUM("train_clips", FIELD_INT, train_clips),
+    NUM("held_back", FIELD_INT, held_back), NUM("best_step", FIELD_LONG, best_step),
+    NUM("val_gain_db", FIELD_DOUBLE, val_gain_db), NUM("val_loss", FIELD_DOUBLE, val_loss),
+    NUM("val_identity", FIELD_DOUBLE, val_identity), NUM("gate_margin_db", FIELD_DOUBLE, gate_margin_db),
+    NUM("gate_frames", FIELD_INT, gate_frames), NUM("gate_psnr_base", FIELD_DOUBLE, gate_psnr_base),
+    NUM("gate_psnr_restored", FIELD_DOUBLE, gate_psnr_restored), NUM("gate_ssim_base", FIELD_DOUBLE, gate_ssim_base),
+    NUM("gate_ssim_restored", FIELD_DOUBLE, gate_ssim_restored), TEXT("gate_sampler", gate_sampler),
+    NUM("seconds_pairs", FIELD_DOUBLE, seconds_pairs), NUM("seconds_latents", FIELD_DOUBLE, seconds_latents),
+    NUM("seconds_train", FIELD_DOUBLE, seconds_train), NUM("seconds_gate", FIELD_DOUBLE, seconds_gate),
+};
+#define N_FIELDS (int)(sizeof fields / sizeof fields[0])
+
+static int add_record(gv_st_builder *b, const gv_scene_adaptation *a)
+{
+    int rc = gv_st_add_metadata(b, "gate", a->gate_open ? "open" : "closed");
+    for (int i = 0; rc == 0 && i < N_FIELDS; i++) {
+        const char *p = (const char *)a + fields[i].offset;
+        char text[64];
+        if (fields[i].type == FIELD_TEXT) {
+            rc = gv_st_add_metadata(b, fields[i].key, p);
+            continue;
+        }
+        if (fields[i].type == FIELD_INT) snprintf(text, sizeof text, "%d", *(const int *)p);
+        else if (fields[i].type == FIELD_LONG) snprintf(text, sizeof text, "%ld", *(const long *)p);
+        else snprintf(text, sizeof text, "%.9g", *(const double *)p);
+        rc = gv_st_add_metadata(b, fields[i].key, text);
+    }
+    return rc;
+}
+
+static int read_record(const gv_st_file *f, gv_scene_adaptation *a)
+{
+    memset(a, 0, sizeof *a);
+    const char *gate = gv_st_metadata(f, "gate");
+    if (!gate || (strcmp(gate, "open") && strcmp(gate, "closed")))
+        return gv_fail("%s: metadata gate is %s, expected open or closed", f->path, gate ? gate : "missing");
+    a->gate_open = !strcmp(gate, "open");
+    for (int i = 0; i < N_FIELDS; i++) {
+        const char *text = gv_st_metadata(f, fields[i].key);
+        char *p = (char *)a + fields[i].offset, *end = NULL;
+        if (!text) return gv_fail("%s: metadata %s is missing (not a complete scene checkpoint)", f->path, fields[i].key);
+        errno = 0;
+        if (fields[i].type == FIELD_TEXT) snprintf(p, fields[i].size, "%s", text);
+        else if (fields[i].type == FIELD_INT) *(int *)p = (int)strtol(text, &end, 10);
+        else if (fields[i].type == FIELD_LONG) *(long *)p = strtol(text, &end, 10);
+        else *(double *)p = strtod(text, &end);
+        if (fields[i].type != FIELD_TEXT && (!*text || *end || errno))
+            return gv_fail("%s: metadata %s '%s' is not a number", f->path, fields[i].key, text);
+    }
+    return 0;
+}
+
+int gv_scene_checkpoint_save(const char *path, const gv_dit *m, const gv_model_config *cfg, const gv_train_state *state,
+                             const gv_scene_adaptation *a)
+{
+    gv_train_state s = *state;
+    snprintf(s.kind, sizeof s.kind, GV_SCENE_CHECKPOINT_KIND);
+    gv_st_builder b;
+    gv_st_builder_init(&b);
+    int rc = add_adapters(&b, m);
+    if (rc == 0) rc = gv_ckpt_add_state(&b, m, cfg, &s, 1);
+    if (rc == 0) rc = add_record(&b, a);
+    if (rc == 0) rc = gv_st_write(&b, path);
+    gv_st_builder_free(&b);
+    return rc ? -1 : 0;
+}
+
+/* Opens a checkpoint of kind "scene" and reads its config, state and record. */
+static int open_scene(const char *path, gv_st_file *f, gv_model_config *cfg, gv_train_state *s, gv_scene_adaptation *a)
+{
+    if (gv_ckpt_open(f, path)) return -1;
+    int rc = gv_ckpt_read_meta(f, cfg, s);
+    if (rc == 0 && strcmp(s->kind, GV_SCENE_CHECKPOINT_KIND))
+        rc = gv_fail("%s: a %s checkpoint, not a scene checkpoint (gaussvid adapt)", path, s->kind);
+    if (rc == 0) rc = read_record(f, a);
+    if (rc) gv_st_close(f);
+    return rc;
+}
+
+int gv_scene_checkpoint_read(const char *path, gv_scene_adaptation *a)
+{
+    gv_st_file f;
+    gv_model_config cfg;
+    gv_train_state s;
+    if (open_scene(path, &f, &cfg, &s, a)) return -1;
+    gv_st_close(&f);
+    return 0;
+}
+
+int gv_scene_checkpoint_is(const char *path)
+{
+    gv_model_config cfg;
+    gv_train_state s;
+    if (gv_checkpoint_read_info(path, &cfg, &s)) return -1;
+    return !strcmp(s.kind, GV_SCENE_CHECKPOINT_KIND);
+}
+
+int gv_scene_checkpoint_base(const char *path, const gv_train_state *state, const gv_scene_adaptation *a, char *out,
+                             size_t size)
+{
+    const char *base = state->base;
+    if (!*base) return gv_fail("%s: metadata base is missing: no base checkpoint to apply the adapters to", path);
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (slash) *slash = '\0';
+    else snprintf(dir, sizeof dir, ".");
+    const char *name = strrchr(base, '/');
+    snprintf(out, size, "%s", base);
+    int found = gv_file_exists(out);
+    if (!found && base[0] != '/') found = gv_path_join(out, size, dir, base) == 0 && gv_file_exists(out);
+    if (!found && name) found = gv_path_join(out, size, dir, name + 1) == 0 && gv_file_exists(out);
+    if (!found)
+        return gv_fail("%s: the base checkpoint it adapts, %s, is not found (neither as written nor beside it)", path, base);
+    char sum[48];
+    if (gv_file_checksum(out, sum, sizeof sum)) return -1;
+    if (strcmp(sum, a->base_checksum))
+        return gv_fail("%s: %s is not the base its adapters were trained on (checksum %s, expected %s)", path, out, sum,
+                       a->base_checksum);
+    return 0;
+}
+
+int gv_scene_checkpoint_load(const char *path, gv_restorer *r)
+{
+    gv_st_file f;
+    gv_train_state s, base_state;
+    gv_scene_adaptation a;
+    gv_model_config cfg, base_cfg;
+    char base[4200];
+    memset(r, 0, sizeof *r);
+    if (open_scene(path, &f, &cfg, &s, &a)) return -1;
+    int rc = gv_scene_checkpoint_base(path, &s, &a, base, sizeof base);
+    if (rc == 0) rc = gv_checkpoint_read_info(base, &base_cfg, &base_state);
+    if (rc == 0 && !strcmp(base_state.kind, GV_SCENE_CHECKPOINT_KIND))
+        rc = gv_fail("%s: its base %s is itself a scene checkpoint", path, base);
+    if (rc == 0) rc = gv_restorer_load(base, r); /* the base first: network, VAE, vae_path */
+    if (rc == 0) {
+        char *x = gv_model_config_to_json(&cfg), *y = gv_model_config_to_json(&r->cfg);
+        if (!x || !y || strcmp(x, y)) rc = gv_fail("%s: written for another model config than its base %s", path, base);
+        free(x), free(y);
+    }
+    if (rc == 0) rc = read_adapters(&f, &r->net);
+    gv_st_close(&f);
+    if (rc == 0) r->cfg = cfg, r->state = s; /* the scene checkpoint's own record (kind "scene") */
+    if (rc) gv_restorer_free(r);
+    return rc;
+}

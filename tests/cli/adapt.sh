@@ -1,0 +1,133 @@
+#!/bin/bash
+# gaussvid adapt: a scene checkpoint from a scene's internal pairs (the adapters alone, the
+# gate recorded); an interrupted adaptation resumed to the bytes of an uninterrupted one; a
+# finished one not redone; bad inputs (too few training views, a base of another network or
+# with a VAE that packs frames, a missing model) failing with one line and writing nothing.
+# restore and eval with a scene checkpoint: a closed gate leaves the renders bit-identical
+# and says so; an open gate restores.
+# Fixtures: a tiny synthesised scene (18 frames of 32x32), the tiny preset with a VAE of
+# temporal factor 1 (tiny1.json), its VAE and base trained for two steps.
+# Usage: bash adapt.sh /path/to/gaussvid   ($GV_TMP scratch)
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup adapt "$1"
+
+data_bytes() {
+    local n
+    n=$(od -An -tu8 -N8 "$1" | tr -d ' ')
+    tail -c +$((9 + n)) "$1"
+}
+same_data() { cmp -s <(data_bytes "$1") <(data_bytes "$2"); }
+meta() { "$G" st inspect --json "$1" | tr ',' '\n' | grep -F "\"$2\":" | head -1; }
+
+
+CONFIGS="$(cd "$(dirname "$0")/../../configs" && pwd)"
+cd "$T" || exit 1
+sed -e 's/"temperal_downsample": \[false, true, true\]/"temperal_downsample": [false, false, false]/' \
+    -e 's/"temporal_factor": 4/"temporal_factor": 1/' -e 's/"name": "tiny"/"name": "tiny1"/' "$CONFIGS/tiny.json" >tiny1.json
+check "tiny1 config made" grep -q '"temporal_factor": 1' tiny1.json
+expect 0 "synth" -- "$G" scene synth --seed 3 --frames 18 --size 32x32 --samples 1 --out A --quiet
+expect 0 "dataset" -- "$G" dataset build --scenes A --intervals 6 --iters 20 --clips-per-run 2 --seed 5 --out D \
+    --quiet --threads 1
+expect 0 "vae" -- "$G" vae train --config tiny1.json --scenes A --steps 2 --crop 32x32 --stats-clips 2 \
+    --out vae.safetensors --quiet
+expect 0 "base" -- "$G" pretrain --clips D --config tiny1.json --vae vae.safetensors --steps 2 --batch 2 \
+    --out base.safetensors --quiet
+
+# Help and usage errors.
+expect 0 "help" -- "$G" adapt --help
+has "usage: gaussvid adapt"
+has "--gate-margin"
+expect 0 "listed" -- "$G" help
+has "adapt"
+expect 2 "no scene" -- "$G" adapt --interval 3 --base base.safetensors --out x.safetensors
+expect 2 "interval 1" -- "$G" adapt --scene A --interval 1 --base base.safetensors --out x.safetensors
+expect 2 "unknown schedule" -- "$G" adapt --scene A --interval 3 --base base.safetensors --out x.safetensors \
+    --lr-schedule step
+one_line "expected constant, cosine or linear"
+
+# 18 frames at n = 4: training views 0, 4, 8, 12, 16; three internal clips, the second held back.
+AD=(--scene A --interval 4 --base base.safetensors --config tiny1.json --iters 20 --steps 4 --val-every 2 --threads 1)
+expect 0 "adapt" -- "$G" adapt "${AD[@]}" --out a.safetensors
+has "a.safetensors: A n=4: 2 internal clips trained on, 1 held back"
+has "gate "
+exists a.safetensors.work/pairs/manifest.json
+exists a.safetensors.work/pairs/clips/A_n08_002.safetensors
+exists a.safetensors.work/best.safetensors
+check "validation at steps 0, 2, 4" test "$(grep -c all a.safetensors.work/val.tsv)" -eq 3
+check "kind scene" grep -qE '"kind":[[:space:]]*"scene"' <("$G" st inspect --json a.safetensors)
+check "gate recorded" grep -qE '"gate":[[:space:]]*"(open|closed)"' <("$G" st inspect --json a.safetensors)
+check "base recorded" grep -q "base.safetensors" <(meta a.safetensors base)
+check "linear decay recorded" grep -q "schedule=linear" <(meta a.safetensors training)
+check "holds LoRA" grep -q "lora_B.weight" <("$G" st inspect a.safetensors)
+check "holds the camera encoder" grep -q "camera_encoder" <("$G" st inspect a.safetensors)
+check "holds only the adapters" test "$("$G" st inspect a.safetensors | grep -cE 'patch_embedding|self_attn.q.weight|vace_blocks.0.after_proj.weight')" -eq 0
+check "smaller than its base" test "$(stat -c %s a.safetensors)" -lt "$(stat -c %s base.safetensors)"
+check "the internal clips are a dataset" "$G" dataset stats a.safetensors.work/pairs
+
+# Done: not redone.
+expect 0 "adapt again" -- "$G" adapt "${AD[@]}" --out a.safetensors
+has "already adapted"
+
+# Interrupted after step 2 (the pairs copied, as a resumed build finds them), then resumed:
+# the adapters of the uninterrupted run, bit for bit.
+mkdir -p b.work && cp -r a.safetensors.work/pairs b.work/
+expect 0 "adapt, interrupted" -- "$G" adapt "${AD[@]}" --out b.safetensors --work b.work --stop-after 2
+has "stopped at step 2 of 4"
+check "nothing written before the end" test ! -e b.safetensors
+expect 0 "adapt, resumed" -- "$G" adapt "${AD[@]}" --out b.safetensors --work b.work
+check "resumed adaptation is bit-exact" same_data a.safetensors b.safetensors
+check "resumed fine-tuning is bit-exact" same_data a.safetensors.work/train.safetensors b.work/train.safetensors
+check "the same step kept" test "$(meta a.safetensors best_step)" = "$(meta b.safetensors best_step)"
+
+# The gate: a margin no gain reaches closes it, a negative one opens it (the work reused).
+expect 0 "gate closed" -- "$G" adapt "${AD[@]}" --out closed.safetensors --work b.work --gate-margin 1000
+has "gate closed"
+has "leave this scene's renders unchanged"
+expect 0 "gate open" -- "$G" adapt "${AD[@]}" --out open.safetensors --work b.work --gate-margin -1000
+has "gate open"
+check "same adapters either way" same_data closed.safetensors open.safetensors
+
+# restore and eval honour the gate, on the scene's renders at n = 4 (a dataset of scene A).
+expect 0 "renders at n = 4" -- "$G" dataset build --scenes A --intervals 4 --iters 20 --clips-per-run 2 --seed 5 \
+    --out R --quiet --threads 1
+clips=(R/clips/*.safetensors)
+check "two clips to restore" test "${#clips[@]}" -eq 2
+expect 0 "restore, gate closed" -- "$G" restore --ckpt closed.safetensors --clips R --out kept --save-clips --quiet
+has "gate closed"
+has "the renders are left unchanged"
+for c in "${clips[@]}"; do
+    check "closed gate: $(basename "$c") unchanged, byte for byte" cmp -s "$c" "kept/$(basename "$c")"
+done
+expect 0 "eval, gate closed" -- "$G" eval --ckpt closed.safetensors --clips R --split all --json closed.json --quiet
+has "left unchanged"
+check "eval JSON names the gate" grep -qE '"gate":[[:space:]]*"closed"' closed.json
+psnrs() { grep -oE '"psnr":[[:space:]]*[-0-9.e+]+' "$1" | head -2 | sed 's/.*://' | tr -d ' ' | uniq | wc -l; }
+check "closed gate: restored PSNR = baseline PSNR" test "$(psnrs closed.json)" -eq 1
+expect 0 "restore, gate open" -- "$G" restore --ckpt open.safetensors --clips R --out restored --save-clips --quiet
+has "gate open"
+has "the renders are restored"
+files_differ() { ! cmp -s "$1" "$2"; }
+check "open gate: the network restores" files_differ "${clips[0]}" "restored/$(basename "${clips[0]}")"
+expect 0 "restore one clip, gate closed" -- "$G" restore --ckpt closed.safetensors --clip "${clips[1]}" --out one --quiet
+has "left unchanged"
+
+# Bad inputs: one line naming the problem, exit 1, nothing written.
+expect 1 "too few training views" -- "$G" adapt "${AD[@]}" --interval 5 --out x.safetensors
+one_line "need at least 5 (at least 21 frames)"
+sed -e 's/"dim": 32/"dim": 48/' tiny1.json >wide.json
+expect 1 "another network" -- "$G" adapt "${AD[@]}" --config wide.json --out x.safetensors
+one_line "a checkpoint of another network"
+expect 1 "missing model" -- "$G" adapt "${AD[@]}" --base nothere.safetensors --out x.safetensors
+one_line "nothere.safetensors"
+expect 0 "tiny vae" -- "$G" vae train --config tiny --scenes A --steps 1 --crop 32x32 --stats-clips 1 \
+    --out vae4.safetensors --quiet
+expect 0 "tiny base" -- "$G" pretrain --clips D --config tiny --vae vae4.safetensors --steps 1 --batch 1 \
+    --out base4.safetensors --quiet
+expect 1 "a VAE that packs frames" -- "$G" adapt "${AD[@]}" --config tiny --base base4.safetensors --out x.safetensors
+one_line "temporal factor 1"
+expect 1 "a scene checkpoint as base" -- "$G" adapt "${AD[@]}" --base a.safetensors --out x.safetensors
+one_line "a scene checkpoint"
+expect 1 "no scene" -- "$G" adapt "${AD[@]}" --scene nowhere --out x.safetensors
+one_line "nowhere"
+check "nothing half-written" test ! -e x.safetensors
+cli_finish

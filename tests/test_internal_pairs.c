@@ -1,0 +1,314 @@
+/* Scene-internal pairs (src/data/internal_pairs.c, internal_build.c): which frames make each
+ * clip, which subset renders it, which frames are masked and where the ground truth is; the
+ * clip format's offset and target mask; resuming; bad inputs. A cheap stand-in simulator
+ * paints each render from the frame it shows and the subset it was trained on, and the
+ * held-out images are deleted before building, so reading one would fail the build. */
+#include <math.h>
+
+#include "check.h"
+#include "gaussvid/core.h"
+#include "gaussvid/dataset.h"
+#include "gaussvid/image.h"
+#include "gaussvid/internal_pairs.h"
+#include "gaussvid/safetensors.h"
+#include "gaussvid/scene.h"
+
+#define FRAMES 20
+#define W 16
+#define H 16
+#define N 3 /* training views 0, 3, ..., 18: 7 of them, 5 interior */
+
+static int truth_value(int frame, int x, int y, int c) { return (x * 7 + y * 13 + frame * 5 + c * 50) & 255; }
+
+/* A scene folder of FRAMES cameras sliding along x, gradient images. */
+static void make_scene(const char *dir, int frames)
+{
+    gv_scene s;
+    memset(&s, 0, sizeof s);
+    snprintf(s.dir, sizeof s.dir, "%s", dir);
+    s.n_frames = frames;
+    s.cameras = calloc((size_t)frames, sizeof *s.cameras);
+    float points[6] = {0, 0, 3, 0.5f, 0.2f, 4};
+    uint8_t colors[6] = {200, 100, 50, 10, 20, 30};
+    s.n_points = 2, s.points = points, s.colors = colors;
+    char path[4400];
+    snprintf(path, sizeof path, "%s/images", dir);
+    gv_mkdirs(path);
+    for (int i = 0; i < frames; i++) {
+        gv_camera *c = &s.cameras[i];
+        const double R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+        memcpy(c->R, R, sizeof R);
+        c->t[0] = -0.1 * i, c->t[2] = 0.2;
+        c->width = W, c->height = H, c->fx = c->fy = 20, c->cx = W / 2.0, c->cy = H / 2.0;
+        snprintf(c->name, sizeof c->name, "frame_%05d.png", i);
+        gv_image img;
+        gv_image_alloc(&img, W, H, 3);
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++)
+                for (int k = 0; k < 3; k++) img.pixels[(y * W + x) * 3 + k] = (uint8_t)truth_value(i, x, y, k);
+        snprintf(path, sizeof path, "%s/images/%s", dir, c->name);
+        CHECK(gv_image_write_png(path, &img) == 0);
+        gv_image_free(&img);
+    }
+    CHECK(gv_scene_write(dir, &s) == 0);
+    free(s.cameras);
+}
+
+/* ---- the stand-in simulator ------------------------------------------------------------- */
+typedef struct {
+    int trains;
+    int trained_on[2][FRAMES]; /* per training: 1 for the scene frames it trained on */
+    int intervals[2];
+} fake_state;
+
+/* The scene frame a camera shows, from its image name. */
+static int frame_of(const gv_camera *c) { return atoi(c->name + strlen("frame_")); }
+
+static int fake_train(void *ctx, const gv_scene *scene, int interval, int iters, uint64_t seed, void **model)
+{
+    fake_state *st = ctx;
+    if (st->trains < 2) {
+        st->intervals[st->trains] = interval;
+        for (int f = 0; f < scene->n_frames; f += interval) st->trained_on[st->trains][frame_of(&scene->cameras[f])] = 1;
+    }
+    st->trains++;
+    int *m = malloc(sizeof *m);
+    *m = frame_of(&scene->cameras[0]); /* the subset's first view */
+    *model = m;
+    return 0;
+}
+
+static int render_value(int frame, int first, int x, int y, int c) { return (x * 3 + y * 5 + frame * 11 + first * 29 + c * 60 + 7) & 255; }
+
+static int fake_render(void *ctx, void *model, const gv_scene *scene, int frame, gv_image *out)
+{
+    int shown = frame_of(&scene->cameras[frame]), first = *(int *)model;
+    if (gv_image_alloc(out, W, H, 3)) return -1;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int k = 0; k < 3; k++) out->pixels[(y * W + x) * 3 + k] = (uint8_t)render_value(shown, first, x, y, k);
+    return 0;
+}
+
+static void fake_free(void *ctx, void *model) { free(model); }
+
+static fake_state state;
+static const gv_artifact_simulator fake = {"fake", fake_train, fake_render, fake_free, &state};
+
+/* ---- the plan ---------------------------------------------------------------------------- */
+static void test_plan(void)
+{
+    gv_internal_clip c[FRAMES];
+    int count = 0;
+    CHECK(gv_internal_views(20, 3) == 7 && gv_internal_views(19, 3) == 7 && gv_internal_views(18, 3) == 6);
+    CHECK(gv_internal_plan(20, 3, c, &count) == 0 && count == 5);
+    /* the uniform positions of a 2n = 6 clip (round half to even), from the subset's first view */
+    const int want[5][5] = {{0, 2, 3, 4, 6}, {3, 5, 6, 7, 9}, {6, 8, 9, 10, 12}, {9, 11, 12, 13, 15}, {12, 14, 15, 16, 18}};
+    for (int i = 0; i < 5; i++) {
+        CHECK(c[i].view == i + 1 && c[i].parity == i % 2);
+        CHECK(!memcmp(c[i].frames, want[i], sizeof want[i]));
+        CHECK(c[i].frames[2] == 3 * (i + 1));  /* the left-out training view, in the middle */
+        CHECK(c[i].frames[1] % 3 && c[i].frames[3] % 3); /* the others are held out at n */
+    }
+    CHECK(gv_internal_plan(9, 2, c, &count) == 0 && count == 3);
+    CHECK(!memcmp(c[1].frames, ((int[]){2, 3, 4, 5, 6}), sizeof c[1].frames) && c[1].parity == 1);
+    CHECK(gv_internal_plan(160, 26, c, &count) == 0 && count == 5); /* the shared scenes at n = 26: 7 views */
+    CHECK(c[0].frames[2] == 26 && c[0].frames[1] == 13 && c[0].frames[3] == 39);
+    CHECK_FAILS_WITH(gv_internal_plan(16, 4, c, &count), "need at least 5 (at least 17 frames)");
+    CHECK_FAILS_WITH(gv_internal_check(20, 5), "4 training views at n = 5");
+    CHECK_FAILS_WITH(gv_internal_check(20, 1), "need n >= 2");
+}
+
+/* ---- the clip format's offset and mask ---------------------------------------------------- */
+static void test_clip_format(const char *base)
+{
+    gv_clip_info info;
+    memset(&info, 0, sizeof info);
+    snprintf(info.id.scene, sizeof info.id.scene, "s");
+    snprintf(info.id.split, sizeof info.id.split, "train");
+    info.id.n = 6, info.anchor_gap = 1, info.iters = 5, info.width = 4, info.height = 2, info.offset = 3;
+    const int frames[5] = {3, 5, 6, 7, 9};
+    memcpy(info.frames, frames, sizeof frames);
+    info.no_target[1] = info.no_target[3] = 1;
+    CHECK(gv_clip_check_info(&info, "x") == 0);
+    gv_clip clip;
+    CHECK(gv_clip_alloc(&clip, &info) == 0);
+    for (int f = 0; f < 5; f++) {
+        const gv_camera cam = {4, 2, 5, 5, 2, 1, {1, 0, 0, 0, 1, 0, 0, 0, 1}, {0, 0, 0}, ""};
+        gv_clip_set_camera(&clip, f, &cam);
+        for (int i = 0; i < 24; i++) gv_clip_frame(clip.inputs, &info, f)[i] = (uint8_t)(f * 40 + i);
+        for (int i = 0; i < 24; i++) gv_clip_frame(clip.targets, &info, f)[i] = (uint8_t)(f * 40 + i + (f == 2));
+    }
+    char path[4400];
+    snprintf(path, sizeof path, "%s/masked.safetensors", base);
+    CHECK(gv_clip_write(path, &clip) == 0);
+    gv_clip back;
+    CHECK(gv_clip_read(path, &back) == 0);
+    CHECK(back.info.offset == 3 && back.info.no_target[1] == 1 && back.info.no_target[2] == 0 && back.info.no_target[3] == 1);
+    gv_clip_free(&back);
+    gv_st_file f;
+    CHECK(gv_st_open(&f, path) == 0);
+    CHECK(gv_st_metadata(&f, "target_mask") && !strcmp(gv_st_metadata(&f, "target_mask"), "[1,0,1,0,1]"));
+    CHECK(gv_st_metadata(&f, "offset") && !strcmp(gv_st_metadata(&f, "offset"), "3"));
+    gv_st_close(&f);
+    /* a frame without ground truth keeps its input as target; the reader checks it */
+    gv_clip_frame(clip.targets, &info, 1)[0] ^= 1;
+    CHECK(gv_clip_write(path, &clip) == 0);
+    CHECK_FAILS_WITH(gv_clip_read(path, &back), "has no ground truth (target_mask 0) but its targets frame differs");
+    gv_clip_frame(clip.targets, &info, 1)[0] ^= 1;
+    /* the clips of `dataset build` keep their metadata: no offset, no mask */
+    clip.info.offset = 0, clip.info.no_target[1] = clip.info.no_target[3] = 0;
+    const int plain[5] = {0, 2, 3, 4, 6};
+    memcpy(clip.info.frames, plain, sizeof plain);
+    snprintf(path, sizeof path, "%s/plain.safetensors", base);
+    CHECK(gv_clip_write(path, &clip) == 0);
+    CHECK(gv_st_open(&f, path) == 0);
+    CHECK(!gv_st_metadata(&f, "target_mask") && !gv_st_metadata(&f, "offset"));
+    gv_st_close(&f);
+    gv_clip_free(&clip);
+    /* the rules */
+    info.no_target[0] = 1;
+    CHECK_FAILS_WITH(gv_clip_check_info(&info, "x"), "frame 0 must be 1 (an anchor)");
+    info.no_target[0] = 0, info.no_target[2] = 1;
+    CHECK_FAILS_WITH(gv_clip_check_info(&info, "x"), "no intermediate frame has ground truth");
+    info.no_target[2] = 0, info.offset = 0;
+    CHECK_FAILS_WITH(gv_clip_check_info(&info, "x"), "are not training views");
+    info.offset = 6;
+    CHECK_FAILS_WITH(gv_clip_check_info(&info, "x"), "offset 6: expected 0..n - 1");
+    info.offset = 3, info.anchor_gap = 2;
+    const int wide[5] = {3, 5, 9, 11, 15};
+    memcpy(info.frames, wide, sizeof wide);
+    CHECK_FAILS_WITH(gv_clip_check_info(&info, "x"), "intermediate frame 9 is a training view (n = 6, offset 3)");
+}
+
+/* ---- building ------------------------------------------------------------------------------ */
+static int frame_equals_truth(const uint8_t *pixels, int frame)
+{
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int k = 0; k < 3; k++)
+                if (pixels[(y * W + x) * 3 + k] != truth_value(frame, x, y, k)) return 0;
+    return 1;
+}
+
+static int frame_equals_render(const uint8_t *pixels, int frame, int first)
+{
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            for (int k = 0; k < 3; k++)
+                if (pixels[(y * W + x) * 3 + k] != render_value(frame, first, x, y, k)) return 0;
+    return 1;
+}
+
+static void check_clips(const char *out, const char *scene_dir)
+{
+    gv_manifest m;
+    int found = 0;
+    CHECK(gv_manifest_read(out, &m, &found) == 0 && found);
+    CHECK(m.n_runs == 1 && m.runs[0].id.n == 2 * N && !strcmp(m.runs[0].id.scene, "room") && !strcmp(m.runs[0].id.split, "train"));
+    CHECK(m.n_clips == 5 && m.params.iters == 7 && m.params.seed == 4 && m.params.clips_per_run == 5);
+    gv_internal_clip plan[FRAMES];
+    int count;
+    CHECK(gv_internal_plan(FRAMES, N, plan, &count) == 0 && count == 5);
+    for (int i = 0; i < m.n_clips && i < count; i++) {
+        char path[4400], want[64];
+        snprintf(want, sizeof want, "clips/room_n06_%03d.safetensors", i);
+        CHECK(!strcmp(m.clips[i].file, want) && !memcmp(m.clips[i].frames, plan[i].frames, sizeof plan[i].frames));
+        snprintf(path, sizeof path, "%s/%s", out, m.clips[i].file);
+        gv_clip c;
+        CHECK(gv_clip_read(path, &c) == 0);
+        const gv_clip_info *info = &c.info;
+        int first = plan[i].parity * N;
+        CHECK(info->id.n == 2 * N && info->offset == first && info->iters == 7 && !strcmp(info->id.split, "train"));
+        CHECK(!memcmp(info->frames, plan[i].frames, sizeof info->frames));
+        /* masked: the two held-out frames; the left-out view in the middle has ground truth */
+        CHECK(!info->no_target[0] && info->no_target[1] && !info->no_target[2] && info->no_target[3] && !info->no_target[4]);
+        for (int f = 0; f < 5; f++) {
+            int frame = info->frames[f];
+            const uint8_t *in = gv_clip_frame(c.inputs, info, f), *tg = gv_clip_frame(c.targets, info, f);
+            if (f == 0 || f == 4) CHECK(frame_equals_truth(in, frame) && frame_equals_truth(tg, frame));
+            else CHECK(frame_equals_render(in, frame, first)); /* rendered by the subset without it */
+            if (f == 2) CHECK(frame_equals_truth(tg, frame));
+            if (f == 1 || f == 3) CHECK(!memcmp(in, tg, (size_t)W * H * 3));
+            CHECK_NEAR(c.poses[f][3], -0.1 * frame, 1e-6);
+        }
+        gv_clip_free(&c);
+    }
+    gv_manifest_free(&m);
+    /* the record: the left-out views and their renders' PSNR */
+    char path[4400];
+    snprintf(path, sizeof path, "%s/runs/room_n06.json", out);
+    gv_run_record r;
+    CHECK(gv_run_record_read(path, &r) == 0);
+    CHECK(r.id.n == 6 && r.n_held_out == 5 && r.n_train == 7 && r.n_clips == 5);
+    for (int i = 0; i < r.n_held_out; i++) CHECK(r.held_out[i] == 3 * (i + 1) && r.psnr[i] > 0 && r.psnr[i] < 40);
+    gv_run_record_free(&r);
+}
+
+static void test_build(const char *base)
+{
+    char scene_dir[4400], out[4400], path[4400];
+    snprintf(scene_dir, sizeof scene_dir, "%s/room", base);
+    make_scene(scene_dir, FRAMES);
+    gv_scene scene;
+    CHECK(gv_scene_load(scene_dir, NULL, &scene) == 0);
+    for (int f = 0; f < FRAMES; f++) /* the held-out frames: never to be read */
+        if (f % N) {
+            snprintf(path, sizeof path, "%s/images/frame_%05d.png", scene_dir, f);
+            CHECK(remove(path) == 0);
+        }
+    snprintf(out, sizeof out, "%s/pairs", base);
+    gv_internal_options o = {N, 7, 4, &fake, out};
+    gv_internal_result r;
+    memset(&state, 0, sizeof state);
+    CHECK(gv_internal_build(&scene, &o, &r) == 0);
+    CHECK(r.clips == 5 && r.subsets_trained == 2 && state.trains == 2);
+    CHECK(state.intervals[0] == 2 * N && state.intervals[1] == 2 * N);
+    for (int f = 0; f < FRAMES; f++) { /* every other training view, once per offset */
+        CHECK(state.trained_on[0][f] == (f % (2 * N) == 0));
+        CHECK(state.trained_on[1][f] == (f % (2 * N) == N));
+    }
+    check_clips(out, scene_dir);
+
+    /* built: nothing trained again */
+    memset(&state, 0, sizeof state);
+    CHECK(gv_internal_build(&scene, &o, &r) == 0 && r.subsets_trained == 0 && state.trains == 0 && r.clips == 5);
+    /* interrupted before the manifest, with a clip of subset 2 missing: only subset 2 trains */
+    char clip1[4400], saved[4400];
+    snprintf(clip1, sizeof clip1, "%s/clips/room_n06_001.safetensors", out);
+    snprintf(saved, sizeof saved, "%s/saved.safetensors", base);
+    CHECK(rename(clip1, saved) == 0);
+    snprintf(path, sizeof path, "%s/manifest.json", out);
+    CHECK(remove(path) == 0);
+    memset(&state, 0, sizeof state);
+    CHECK(gv_internal_build(&scene, &o, &r) == 0 && r.subsets_trained == 1 && state.trains == 1);
+    CHECK(state.trained_on[0][N] && state.trained_on[0][3 * N] && !state.trained_on[0][0]);
+    char *a, *b;
+    size_t na, nb;
+    CHECK(gv_read_file(clip1, &a, &na) == 0 && gv_read_file(saved, &b, &nb) == 0);
+    CHECK(na == nb && !memcmp(a, b, na)); /* the same bytes again */
+    free(a), free(b);
+    check_clips(out, scene_dir);
+
+    /* one folder, one build */
+    gv_internal_options other = o;
+    other.iters = 8;
+    CHECK_FAILS_WITH(gv_internal_build(&scene, &other, &r), "holds other clips than the internal pairs of room");
+    other = o;
+    other.interval = 5;
+    char other_out[4400];
+    snprintf(other_out, sizeof other_out, "%s/pairs5", base);
+    other.out_dir = other_out;
+    CHECK_FAILS_WITH(gv_internal_build(&scene, &other, &r), "4 training views at n = 5");
+    gv_scene_free(&scene);
+}
+
+int main(void)
+{
+    const char *base = check_tmp_dir();
+    gv_log_set_level(GV_LOG_QUIET);
+    test_plan();
+    test_clip_format(base);
+    test_build(base);
+    return check_summary();
+}
