@@ -2,7 +2,7 @@
 #   CC=clang cmake -S . -B build-fuzz -DGV_FUZZ=ON && cmake --build build-fuzz --target fuzzers
 # The library is compiled with coverage instrumentation (fuzzer-no-link) and the sanitizers;
 # each fuzz/fuzz_NAME.c links it with libFuzzer's main. `make fuzz` runs them (fuzz/run.sh).
-set(GV_FUZZ_FLAGS -O1 -g -Wno-unknown-warning-option -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer)
+set(GV_FUZZ_FLAGS -O1 -g -Wno-unknown-warning-option -Wno-pass-failed -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer)
 target_compile_options(gaussvid_lib PRIVATE ${GV_FUZZ_FLAGS} -fsanitize=fuzzer-no-link)
 target_link_options(gaussvid_lib INTERFACE -fsanitize=address,undefined)
 

@@ -2,7 +2,8 @@
  * written into and stays a device, a FIFO is written into and stays a FIFO, a symbolic link is
  * written through to its target (the link stays), a directory is refused with one line; and
  * a full disk (a file-size limit, which fails write() as a full disk does) fails the commit
- * with one line and leaves the previous file as it was. */
+ * with one line and leaves the previous file as it was; what a kill leaves (temporaries, a
+ * log past the checkpoint) is cleaned up. */
 #include <dirent.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -228,6 +229,20 @@ static void test_sweep(void)
     CHECK(gv_file_exists(at(name)) && gv_file_exists(at("sweep/d.tmp.12x")));
 }
 
+/* A log rewound to the checkpoint's step: the header and rows up to it stay, later rows and
+ * a row cut short by a kill go; nothing to do leaves the file alone; no file is fine. */
+static void test_step_log_rewind(void)
+{
+    const char *log = at("train.tsv");
+    CHECK(write_plain(log, "step\tloss\n1\t0.5\n2\t0.4\n3\t0.3\n4\t0.2\n5\t0.") == 0);
+    CHECK(gv_step_log_rewind(log, 2) == 0 && has_text(log, "step\tloss\n1\t0.5\n2\t0.4\n"));
+    CHECK(gv_step_log_rewind(log, 9) == 0 && has_text(log, "step\tloss\n1\t0.5\n2\t0.4\n"));
+    CHECK(write_plain(log, "step\tloss\n1\t0.5\n2\t0.") == 0);
+    CHECK(gv_step_log_rewind(log, 2) == 0 && has_text(log, "step\tloss\n1\t0.5\n"));
+    CHECK(gv_step_log_rewind(at("no-such.tsv"), 2) == 0 && !gv_file_exists(at("no-such.tsv")));
+    CHECK(temporaries_in(dir) == 0);
+}
+
 int main(void)
 {
     snprintf(dir, sizeof dir, "%s", check_tmp_dir());
@@ -238,5 +253,6 @@ int main(void)
     test_regular();
     test_disk_full();
     test_sweep();
+    test_step_log_rewind();
     return check_summary();
 }

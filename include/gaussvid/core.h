@@ -88,6 +88,13 @@ void gv_atomic_abort(gv_atomic_file *af);
  * those whose NAME starts with prefix (NULL: all); a live process's are kept. Returns how
  * many were removed. Long jobs call it on their output folders when they start. */
 int gv_atomic_sweep(const char *dir, const char *prefix);
+/* Removes the temporaries a killed writer left beside path: those of path itself and of the
+ * files named after it (path.ckpt), in path's folder. */
+int gv_atomic_sweep_beside(const char *path);
+/* A log whose rows start with their step (a header line first): keeps the rows up to
+ * last_step, drops the later ones and a last row cut short, so a run resumed from the
+ * checkpoint of last_step appends each step once (src/core/step_log.c). */
+int gv_step_log_rewind(const char *path, long last_step);
 /* Writes text and a final newline to path atomically (JSON documents, manifests). */
 int gv_write_text_atomic(const char *path, const char *text);
 

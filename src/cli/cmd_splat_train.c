@@ -86,6 +86,7 @@ int cmd_splat_train(int argc, char **argv)
     if (gv_scene_load(scene_dir, &so, &scene) != 0) return gv_report_failure();
     gv_gaussians model;
     double start = gv_now();
+    gv_atomic_sweep_beside(out); /* a killed run's temporary (the run starts again) */
     if (gv_splat_train(&scene, interval, &opt, &model) != 0) {
         gv_scene_free(&scene);
         return gv_report_failure();

@@ -179,3 +179,11 @@ int gv_atomic_sweep(const char *dir, const char *prefix)
     closedir(d);
     return removed;
 }
+
+int gv_atomic_sweep_beside(const char *path)
+{
+    char folder[4096];
+    folder_of(path, folder, sizeof folder);
+    const char *slash = strrchr(path, '/');
+    return gv_atomic_sweep(folder, slash ? slash + 1 : path);
+}

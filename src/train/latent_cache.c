@@ -279,6 +279,7 @@ int gv_latent_set_load(const char *dataset_dir, const char *split, const char *v
             gv_progress_update(&bar, k + 1, NULL);
         }
         gv_progress_finish(&bar);
+        if (rc == 0) gv_atomic_sweep_beside(out->cache_path); /* a killed writer's temporary */
         if (rc == 0) rc = cache_write(out->cache_path, key, cfg, vae_path, out, hashes, &cache, &m);
         if (rc == 0) gv_info("%s: %d clips encoded, %d from the cache", out->cache_path, n_pending, out->count - n_pending);
     }

@@ -71,8 +71,9 @@ int gv_train_relative_weights(const gv_latent_set *data, double **out)
     return 0;
 }
 
-static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_options *o, int appending)
+static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_options *o, long start)
 {
+    int appending = start > 0;
     memset(x, 0, sizeof *x);
     x->o = o;
     gv_graph_init(&x->g, 0);
@@ -88,6 +89,9 @@ static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_optio
     for (int i = 0; curriculum && i < data->count; i++)
         x->difficulty[i] = gv_curriculum_difficulty(data->clips[i].n, o->n_min, o->n_max);
     if (o->objective == GV_OBJECTIVE_FINETUNE && o->relative_loss && gv_train_relative_weights(data, &x->relative)) return -1;
+    /* resumed after a kill: the rows past the checkpoint are written again */
+    if (appending && o->log_path && gv_step_log_rewind(o->log_path, start)) return -1;
+    if (appending && o->val && o->val_log && gv_step_log_rewind(o->val_log, start)) return -1;
     if (o->log_path) {
         x->log = fopen(o->log_path, appending ? "a" : "w");
         if (!x->log) return gv_fail("%s: cannot open the log for writing", o->log_path);
@@ -153,9 +157,11 @@ static int train_step(gv_dit *m, const gv_latent_set *data, loop_ctx *x, gv_trai
 static void show_step(loop_ctx *x, gv_progress *bar, const gv_train_state *st, long done, double lr, double threshold,
                       int skipped, const gv_sample_losses *mean, double rate)
 {
-    if (x->log)
+    if (x->log) {
         fprintf(x->log, "%ld\t%.2f\t%.3g\t%.6f\t%.6f\t%.6f\t%.4f\t%d\t%.3f\n", st->step, st->seconds, lr, mean->loss,
                 mean->fm, mean->latent, threshold >= 0 ? threshold : 1.0, skipped, rate);
+        fflush(x->log); /* a kill loses no row the checkpoint holds */
+    }
     char dmax[48] = "";
     if (threshold >= 0) snprintf(dmax, sizeof dmax, "  dmax %.2f, %d skipped", threshold, skipped);
     gv_progress_update(bar, done, "step %ld/%ld  loss %.4f (fm %.4f, latent %.4f)%s  %.2f clips/s", st->step,
@@ -208,13 +214,14 @@ int gv_train_run(gv_dit *m, const gv_model_config *save_cfg, const gv_latent_set
     st.steps = o->steps;
     st.seed = o->seed;
     gv_train_options_text(o, st.training, sizeof st.training);
+    gv_atomic_sweep_beside(o->out); /* temporaries of the weights and checkpoint a kill left */
     int resumed = o->resume && gv_file_exists(ckpt);
     if (resumed && resume(m, save_cfg, ckpt, &st)) return -1;
     if (o->resume && !resumed) gv_info("%s: no checkpoint, starting at step 0", ckpt);
     if (st.step > o->steps) return gv_fail("%s: at step %ld, beyond the run's %ld steps", ckpt, st.step, o->steps);
     long start = st.step, end = o->stop_after > 0 && o->stop_after < o->steps ? o->stop_after : o->steps;
     loop_ctx x;
-    int rc = ctx_init(&x, data, o, start > 0);
+    int rc = ctx_init(&x, data, o, start);
     gv_lr_schedule sched = {o->lr_schedule, o->lr, o->min_lr, o->warmup, o->steps};
     int curriculum = x.difficulty != NULL;
     gv_progress bar;

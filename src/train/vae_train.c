@@ -170,8 +170,12 @@ int gv_vae_train(const gv_model_config *c, const gv_vae_frames *train, const gv_
     }
     int64_t clip = 3LL * o->batch * o->frames * o->crop_h * o->crop_w;
     float *x = malloc((size_t)clip * sizeof *x), *eps = malloc((size_t)clip * sizeof *eps);
-    FILE *log = o->log_path ? fopen(o->log_path, start ? "a" : "w") : NULL;
+    /* after a kill: the temporaries it left go, and the log loses the rows past the checkpoint
+     * (they are written again) */
+    gv_atomic_sweep_beside(o->out);
     int rc = !x || !eps ? gv_fail("vae train: out of memory") : 0;
+    if (rc == 0 && start && o->log_path) rc = gv_step_log_rewind(o->log_path, start);
+    FILE *log = rc == 0 && o->log_path ? fopen(o->log_path, start ? "a" : "w") : NULL;
     if (rc == 0 && o->log_path && !log) rc = gv_fail("%s: cannot open the log for writing", o->log_path);
     if (rc == 0 && log && !start) fprintf(log, "step\tseconds\tloss\ttrain_psnr\theldout_psnr\theldout_ssim\n");
     gv_lr_schedule lr = {GV_LR_COSINE, o->lr, o->min_lr, o->warmup, o->steps};

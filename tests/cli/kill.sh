@@ -1,0 +1,165 @@
+#!/bin/bash
+# Long jobs killed with SIGKILL at seeded random moments, then run again with the same command
+# (issue 25): `splat train`, `dataset build --jobs 2`, `vae train`, `pretrain`, `train`. After
+# each kill every file the job left is whole (each safetensors file opens, each PLY reads, the
+# dataset's manifest and run records read); after the second run no temporary is left, the
+# log has each step once, and the result equals an uninterrupted run's: byte for byte for the
+# PLY, the clips and the weights (tensor data: the metadata holds wall times), the manifest
+# and run records with their times left out. splat train has no checkpoint: it starts again.
+# At most one checkpoint interval of work is lost (the log's last step against the checkpoint's).
+# KILL_SEED (default 25) seeds the moments; KILL_MOMENTS (default 3) is how many per job.
+# Usage: bash kill.sh /path/to/gaussvid   ($GV_TMP scratch)
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup kill "$1"
+G=$(realpath "$G")
+cd "$T" || exit 1
+export OMP_NUM_THREADS=1
+RANDOM=${KILL_SEED:-25}
+MOMENTS=${KILL_MOMENTS:-3}
+
+mkdir in
+cat >in/micro.json <<'JSON'
+{"name": "micro",
+ "dit": {"dim": 8, "ffn_dim": 16, "freq_dim": 8, "text_dim": 8, "num_heads": 1, "num_layers": 1,
+         "vace_layers": [0], "vace_in_dim": 72, "patch_size": [1, 2, 2], "in_dim": 4, "out_dim": 4,
+         "text_len": 4, "eps": 1e-06, "qk_norm": true, "cross_attn_norm": true, "cross_attn": true},
+ "vae": {"dim": 4, "z_dim": 4, "dim_mult": [1, 2, 2, 2], "num_res_blocks": 1, "attn_scales": [],
+         "temperal_downsample": [false, true, true], "temporal_factor": 4, "spatial_factor": 8},
+ "camera": {"channels": 4, "gate_hidden": 4, "proj_hidden": 8, "gamma_init": 0.1},
+ "lora": {"rank": 1, "alpha": 1, "targets": ["q", "k", "v", "o", "ffn.0", "ffn.2"], "modules": ["blocks", "vace_blocks"]},
+ "variant": {"camera": "decomposed", "anchors": "both", "per_frame": false, "skip": false, "residual": false}}
+JSON
+expect 0 "synth a" -- "$G" scene synth --seed 3 --frames 14 --size 32x32 --samples 1 --out in/A --quiet
+expect 0 "synth b" -- "$G" scene synth --seed 4 --frames 14 --size 32x32 --samples 1 --out in/B --quiet
+
+# Every job runs in its own folder under $T (NAME_ref, NAME_1, ...), so ../in and the other
+# jobs' reference outputs are at the same relative paths from each.
+Q=(--quiet --threads 1)
+SPLAT=(splat train --scene ../in/A --interval 4 --iters 300 --out a.ply "${Q[@]}")
+DATA=(dataset build --scenes ../in/A ../in/B --eval-scenes B --intervals 6,8 --iters 40 --clips-per-run 2 --seed 5
+      --jobs 2 --out D "${Q[@]}")
+VAE=(vae train --config ../in/micro.json --scenes ../in/A --steps 12 --checkpoint-every 2 --crop 32x32 --stats-clips 1
+     --resume --log vae.tsv --out vae.safetensors "${Q[@]}")
+PRE=(pretrain --clips ../data_ref/D --config ../in/micro.json --vae ../vae_ref/vae.safetensors --steps 40
+     --checkpoint-every 4 --batch 1 --seed 1 --resume --log pre.tsv --out base.safetensors "${Q[@]}")
+FT=(train --clips ../data_ref/D --base ../pretrain_ref/base.safetensors --steps 40 --checkpoint-every 4 --batch 1
+    --resume --log ft.tsv --out ft.safetensors "${Q[@]}")
+
+# data_bytes FILE: the tensor data of a safetensors file (after its header).
+data_bytes() { local n; n=$(od -An -tu8 -N8 "$1" | tr -d ' '); tail -c +$((9 + n)) "$1"; }
+# timeless FILE: a JSON file without its wall times.
+timeless() { sed -E 's/"(seconds|train_seconds|render_seconds)":[[:space:]]*[0-9.e+-]+/"\1": -/g' "$1"; }
+# steps LOG: the step column of a log, header left out.
+steps() { tail -n +2 "$1" | cut -f1; }
+
+# whole DIR: every file the job left in DIR (temporaries aside) reads.
+whole() {
+    local f broken=""
+    while IFS= read -r f; do
+        case "$f" in
+        *.tmp.*) ;;
+        *.safetensors | *.ckpt) "$G" st inspect "$f" >/dev/null 2>&1 || broken+=" $f" ;;
+        *.ply) "$G" splat export "$f" --out /dev/null >/dev/null 2>&1 || broken+=" $f" ;;
+        */manifest.json) "$G" dataset stats "$(dirname "$f")" >/dev/null 2>&1 || broken+=" $f" ;;
+        esac
+    done < <(find "$1" -type f)
+    echo "$broken"
+}
+
+# same_result JOB DIR: DIR's outputs equal JOB_ref's.
+same_result() {
+    local ref="$T/$1_ref" dir=$2 f differ=""
+    case $1 in
+    splat) cmp -s "$ref/a.ply" "$dir/a.ply" || differ+=" a.ply" ;;
+    data)
+        for f in $(cd "$ref/D" && find . -type f | sort); do
+            case "$f" in
+            *.json) cmp -s <(timeless "$ref/D/$f") <(timeless "$dir/D/$f") || differ+=" $f" ;;
+            *) cmp -s "$ref/D/$f" "$dir/D/$f" || differ+=" $f" ;;
+            esac
+        done
+        [ "$(cd "$ref/D" && find . -type f | sort)" = "$(cd "$dir/D" && find . -type f | sort)" ] || differ+=" (file list)" ;;
+    *)
+        for f in $(cd "$ref" && ls *.safetensors *.ckpt 2>/dev/null); do
+            cmp -s <(data_bytes "$ref/$f") <(data_bytes "$dir/$f") || differ+=" $f"
+        done
+        for f in $(cd "$ref" && ls *.tsv 2>/dev/null); do
+            [ -z "$(tail -c 1 "$dir/$f")" ] || differ+=" $f(last line cut)"
+            cmp -s <(steps "$ref/$f") <(steps "$dir/$f") || differ+=" $f(steps)"
+        done ;;
+    esac
+    echo "$differ"
+}
+
+# lost NAME DIR: steps the job's log shows done beyond its checkpoint's step (the work a kill
+# loses), then the checkpoint interval; nothing for splat and data.
+lost() {
+    local ckpt log every
+    case $1 in
+    vae) ckpt=vae.safetensors.ckpt log=vae.tsv every=2 ;;
+    pretrain) ckpt=base.safetensors.ckpt log=pre.tsv every=4 ;;
+    train) ckpt=ft.safetensors.ckpt log=ft.tsv every=4 ;;
+    *) return ;;
+    esac
+    local at=0 done=0
+    [ -f "$2/$ckpt" ] && at=$("$G" st inspect --json "$2/$ckpt" | tr ',' '\n' | grep '"step"' | grep -o '[0-9]*' | head -1)
+    [ -f "$2/$log" ] && done=$(grep -a '^[0-9]' "$2/$log" | grep -a "$(printf '\t')" | tail -1 | cut -f1)
+    echo "$((${done:-0} - ${at:-0})) $every"
+}
+
+# job NAME CMD...: the reference run, then MOMENTS runs killed at a seeded moment of the
+# reference's duration and run again to the end.
+job() {
+    local name=$1
+    shift
+    mkdir -p "$T/${name}_ref"
+    local start end ref_ms
+    start=$(date +%s%N)
+    (cd "$T/${name}_ref" && "$G" "$@" >out 2>err)
+    check_rc "$name: uninterrupted run" $?
+    end=$(date +%s%N)
+    ref_ms=$(((end - start) / 1000000))
+    for i in $(seq 1 "$MOMENTS"); do
+        local dir="$T/${name}_$i" percent=$((5 + RANDOM % 91))
+        local ms=$((ref_ms * percent / 100))
+        mkdir -p "$dir"
+        (cd "$dir" && exec "$G" "$@" >out 2>err) &
+        local pid=$!
+        sleep "$((ms / 1000)).$(printf %03d $((ms % 1000)))"
+        local when="killed at ${ms} ms (${percent}% of ${ref_ms} ms)"
+        kill -9 "$pid" 2>/dev/null || when="finished before ${ms} ms"
+        wait "$pid" 2>/dev/null
+        local left
+        left=$(find "$dir" -type f ! -name out ! -name err | sed "s|$dir/||" | sort | tr '\n' ' ')
+        local broken
+        broken=$(whole "$dir")
+        if [ -z "$broken" ]; then ok; else bad "$name $i: $when: broken files:$broken"; fi
+        local loss
+        loss=$(lost "$name" "$dir")
+        if [ -n "$loss" ]; then
+            local steps_lost=${loss% *} every=${loss#* }
+            when+=", $steps_lost steps past the checkpoint"
+            if [ "$steps_lost" -le "$every" ]; then ok; else bad "$name $i: $when: more than $every steps lost"; fi
+        fi
+        (cd "$dir" && "$G" "$@" >out 2>err)
+        check_rc "$name $i: run again after the kill" $?
+        local temps
+        temps=$(find "$dir" -name '*.tmp.*' -o -name '*.partial-*')
+        if [ -z "$temps" ]; then ok; else bad "$name $i: temporaries left: $temps"; fi
+        local differ
+        differ=$(same_result "$name" "$dir")
+        if [ -z "$differ" ]; then ok; else bad "$name $i: $when: differs from the uninterrupted run:$differ"; fi
+        echo "kill: $name $i: $when; left: ${left:-nothing}; result: ${differ:-identical}"
+    done
+}
+
+job splat "${SPLAT[@]}"
+job data "${DATA[@]}"
+job vae "${VAE[@]}"
+job pretrain "${PRE[@]}"
+job train "${FT[@]}"
+# pretrain and train write their latent cache into the shared dataset folder: nothing left there
+temps=$(find "$T" -name '*.tmp.*' -o -name '*.partial-*')
+if [ -z "$temps" ]; then ok; else bad "temporaries left: $temps"; fi
+
+cli_finish
