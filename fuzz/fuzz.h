@@ -6,6 +6,7 @@
 #ifndef GAUSSVID_FUZZ_H
 #define GAUSSVID_FUZZ_H
 
+#include <dirent.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -29,6 +30,21 @@ static inline const char *fuzz_dir(void)
         mkdir(dir, 0700);
     }
     return dir;
+}
+
+/* Removes the scratch folder at exit (its files only: the harnesses make no subfolders). */
+static inline void fuzz_remove_dir(void)
+{
+    DIR *d = opendir(fuzz_dir());
+    if (!d) return;
+    char path[600];
+    for (struct dirent *e; (e = readdir(d));) {
+        if (e->d_name[0] == '.') continue;
+        snprintf(path, sizeof path, "%s/%s", fuzz_dir(), e->d_name);
+        unlink(path);
+    }
+    closedir(d);
+    rmdir(fuzz_dir());
 }
 
 /* Writes the input to fuzz_dir()/name and returns that path. */
@@ -73,6 +89,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     (void)argc, (void)argv;
     gv_log_set_level(GV_LOG_QUIET);
     omp_set_num_threads(1);
+    atexit(fuzz_remove_dir);
     const char *limit = getenv("FUZZ_CPU_LIMIT");
     if (limit && atof(limit) > 0) fuzz_cpu_limit = atof(limit);
     return 0;

@@ -197,8 +197,11 @@ with_byte 0 D/manifest.json "$C/manifest/manifest"
 with_byte 2 D/manifest.json "$C/manifest/stats"
 ls D/runs | head -1 | while read -r f; do with_byte 1 "D/runs/$f" "$C/manifest/run"; done
 
-# Checkpoints: the pretrained base (info and full load) and the VAE.
+# Checkpoints and weights: the pretrained base (info, full load, resume), the VAE, and other
+# weights offered as LPIPS weights.
 with_byte 0 base.safetensors "$C/checkpoint/base_info"
 with_byte 1 base.safetensors "$C/checkpoint/base_load"
 with_byte 2 vae.safetensors "$C/checkpoint/vae"
+with_byte 3 "$C/safetensors/floats" "$C/checkpoint/lpips_other"  # not LPIPS weights: refused
+with_byte 4 base.safetensors "$C/checkpoint/base_resume"
 du -sh "$C"/*

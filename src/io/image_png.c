@@ -166,9 +166,11 @@ int gv_image_write_png(const char *path, const gv_image *img)
     int rc = -1;
     if (!ctx.png || !ctx.info) snprintf(ctx.message, sizeof ctx.message, "out of memory");
     else rc = png_write_body(&ctx, img);
+    int err = errno, write_failed = rc != 0 && ferror(af.f); /* a full disk: say so, not libpng's "Write Error" */
     if (ctx.png) png_destroy_write_struct(&ctx.png, ctx.info ? &ctx.info : NULL);
     if (rc != 0) {
         gv_atomic_abort(&af);
+        if (write_failed) return gv_fail("%s: write error: %s", path, strerror(err));
         return gv_fail("%s: cannot write PNG: %s", path, ctx.message);
     }
     return gv_atomic_commit(&af);

@@ -34,6 +34,8 @@ PRE=(pretrain --clips D --config micro.json --vae vae.safetensors --steps 2 --ch
 FT=(train --clips D --base base.safetensors --steps 2 --checkpoint-every 1 --batch 1 --out ft.safetensors "${Q[@]}")
 RESTORE=(restore --ckpt ft.safetensors --clips D --out R --save-clips "${Q[@]}")
 expect 0 "synth" -- "$G" scene synth --seed 3 --frames 14 --size 32x32 --samples 1 --out S --quiet
+BIG=(scene synth --seed 3 --frames 2 --size 256x256 --samples 1 --out S2 --quiet) # PNGs past stdio's buffer
+expect 0 "synth, larger frames" -- "$G" "${BIG[@]}"
 expect 0 "splat train" -- "$G" "${SPLAT[@]}"
 expect 0 "splat export" -- "$G" splat export a.ply --out a.splat
 expect 0 "splat eval" -- "$G" splat eval --model a.ply --scene S --interval 4 --json e.json "${Q[@]}"
@@ -43,7 +45,7 @@ expect 0 "vae train" -- "$G" "${VAE[@]}"
 expect 0 "pretrain" -- "$G" "${PRE[@]}"
 expect 0 "train" -- "$G" "${FT[@]}"
 expect 0 "restore" -- "$G" "${RESTORE[@]}"
-mkdir -p before && cp -r S a.ply a.splat e.json P D vae.safetensors* base.safetensors* ft.safetensors* R before/
+mkdir -p before && cp -r S S2 a.ply a.splat e.json P D vae.safetensors* base.safetensors* ft.safetensors* R before/
 
 # full DESC KB REASON -- CMD...: runs CMD with files limited to KB kB; it must exit 1 with one
 # line mentioning REASON, leave every file of the first run as it was and no temporary.
@@ -66,6 +68,7 @@ full "splat export" 1 "a.splat: write error: $TOO_LARGE" -- "$G" splat export a.
 full "splat eval" 1 "e.json: write error: $TOO_LARGE" -- "$G" splat eval --model a.ply --scene S --interval 4 --json e.json "${Q[@]}"
 full "splat render" 1 "P/frame_00001.png" -- "$G" splat render --model a.ply --scene S --frames 1 --out P "${Q[@]}"
 full "scene synth" 1 "$TOO_LARGE" -- "$G" scene synth --seed 3 --frames 14 --size 32x32 --samples 1 --out S --quiet
+full "scene synth, libpng's own write fails" 8 "png: write error: $TOO_LARGE" -- "$G" "${BIG[@]}"
 full "dataset build, a new interval" 8 "$TOO_LARGE" -- "$G" "${DATA[@]/#6/6,7}"
 full "vae train" 64 "vae.safetensors" -- "$G" "${VAE[@]}"
 full "pretrain" 64 "base.safetensors" -- "$G" "${PRE[@]}"
