@@ -435,7 +435,7 @@ static void test_runs(const char *tmp)
     CHECK(rf_make_dataset(dir, specs, 3, W, H, 40) == 0);
     setup s;
     CHECK(setup_make(&s, NULL, 50) == 0);
-    gv_restore_options o = {gv_sampler_default(), GV_COMPOSE_RESIDUAL, "eval", NULL, 0, 1, NULL, NULL, 0};
+    gv_restore_options o = {.sampler = gv_sampler_default(), .compose = GV_COMPOSE_RESIDUAL, .split = "eval", .use_cache = 1};
     /* identity + residual: the restored numbers are the baseline's, exactly */
     CHECK(gv_sampler_from_name("identity", &o.sampler) == 0);
     gv_eval_table t;
@@ -460,6 +460,28 @@ static void test_runs(const char *tmp)
     CHECK(a.mean.clips == 2 && a.mean.psnr_rest == b.mean.psnr_rest && a.mean.psnr_rest == c.mean.psnr_rest &&
           a.mean.ssim_rest == c.mean.ssim_rest);
     CHECK(a.mean.psnr_rest != a.mean.psnr_base);
+    /* a scene and an interval select clips, from the cache and from the manifest alike; a clip
+     * file of another run is refused, and a selection that matches nothing fails */
+    for (int cached = 0; cached <= 1; cached++) {
+        gv_restore_options sel = o;
+        sel.use_cache = cached, sel.out_dir = NULL, sel.split = NULL, sel.scene = "beta", sel.interval = 8;
+        gv_eval_table d;
+        gv_eval_init(&d, NULL);
+        CHECK(gv_restore_dataset(&s.r, dir, into(&sel, &d)) == 0);
+        gv_eval_finish(&d);
+        CHECK(d.mean.clips == 1 && d.n_rows == 1 && d.rows[0].n == 8 && d.mean.psnr_rest == c.rows[1].psnr_rest);
+        sel.scene = "alpha";
+        gv_eval_init(&d, NULL);
+        CHECK(gv_restore_dataset(&s.r, dir, into(&sel, &d)) == -1 && strstr(gv_last_error(), "no alpha clips at n = 8"));
+        sel.interval = 0;
+        gv_eval_init(&d, NULL);
+        CHECK(gv_restore_dataset(&s.r, dir, into(&sel, &d)) == 0);
+        gv_eval_finish(&d);
+        CHECK(d.mean.clips == 1 && d.rows[0].n == 6);
+        sel.scene = "beta", sel.interval = 6;
+        gv_eval_init(&d, NULL);
+        CHECK(gv_restore_files(&s.r, paths + 1, 1, into(&sel, &d)) == -1 && strstr(gv_last_error(), "not of beta at n = 6"));
+    }
     /* the written frames and clip: the restored clip's inputs are the PNGs, its targets the clip's */
     gv_clip orig, saved;
     snprintf(path, sizeof path, "%s/beta_n08_002.safetensors", out);

@@ -110,6 +110,8 @@ typedef struct {
     gv_sampler sampler;
     gv_compose compose;
     const char *split;                 /* dataset runs: "train", "eval" or NULL (all) */
+    const char *scene;                 /* only clips of this scene (folder name); NULL: all */
+    int interval;                      /* only clips of this interval n; 0: all */
     const char *out_dir;               /* restore: PNGs (and clips) go here; NULL: none */
     int save_clips;                    /* restore: also <out>/<clip>.safetensors */
     int use_cache;                     /* dataset runs: the latent cache (1) or encode each clip */
@@ -123,7 +125,9 @@ typedef struct {
 } gv_restore_options;
 
 /* Restores clip files (paths) or every clip of a dataset folder (dataset_dir, split), with a
- * progress bar; each restored clip is written (when out_dir) and handed to o->each. */
+ * progress bar; each restored clip is written (when out_dir) and handed to o->each. With
+ * o->scene or o->interval a dataset run takes only the matching clips (and fails when none
+ * matches) and a clip file of another scene or interval is refused. */
 int gv_restore_files(gv_restorer *r, const char *const *paths, int n_paths, const gv_restore_options *o);
 int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore_options *o);
 

@@ -29,7 +29,9 @@ int cmd_eval(int argc, char **argv)
         "intermediate frames against the ground truth, as the 3DGS evaluation computes PSNR and\n"
         "SSIM (docs/METRICS.md), and LPIPS with --lpips: the corrupted inputs (baseline) and the\n"
         "restored frames, averaged over frames per n and overall. JSON: {\"baseline\": {\"psnr\", \"ssim\", \"clips\"},\n"
-        "\"restored\": {...}, \"per_n\": [...], \"checkpoint\", \"sampler\", \"compose\", \"split\"}.",
+        "\"restored\": {...}, \"per_n\": [...], \"checkpoint\", \"sampler\", \"compose\", \"split\",\n"
+        "\"scene\" (with --scene or a scene checkpoint), \"gate\" (a scene checkpoint)}. A scene\n"
+        "checkpoint (gaussvid adapt) restores only the clips of its scene at its interval.",
         flags, GV_RESTORE_CLI_FLAGS + 3, 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
@@ -54,9 +56,12 @@ int cmd_eval(int argc, char **argv)
         gv_eval_print_markdown(table, stdout);
     }
     if (rc == 0 && json) {
-        const char *keys[6] = {"checkpoint", "sampler", "compose", "split", "clips_dir", "gate"};
-        const char *values[6] = {c.ckpt, text, gv_compose_name(o.compose), c.split, clips, s.gate};
-        rc = gv_eval_write_json(table, json, keys, values, s.gate ? 6 : 5);
+        const char *keys[7] = {"checkpoint", "sampler", "compose", "split", "clips_dir", "scene", "gate"};
+        const char *values[7] = {c.ckpt, text, gv_compose_name(o.compose), c.split, clips, o.scene, s.gate};
+        int count = 5;
+        for (int i = 5; i < 7; i++) /* the scene and the gate only when there is one */
+            if (values[i]) keys[count] = keys[i], values[count++] = values[i];
+        rc = gv_eval_write_json(table, json, keys, values, count);
     }
     if (rc == 0 && identity) {
         /* restore.h: the identity sampler with residual composition reproduces the inputs */

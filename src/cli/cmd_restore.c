@@ -28,6 +28,9 @@ void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
          "residual (render + D(z) - D(z-hat)) or decoded (D(z)); default " GV_COMPOSE_DEFAULT, 0},
         {"no-cache", GV_FLAG_BOOL, &c->no_cache, NULL, "encode every clip instead of using the dataset's latent cache", 0},
         {"lpips", GV_FLAG_STRING, &c->lpips, "FILE", "AlexNet-LPIPS weights (safetensors, docs/LPIPS.md): add LPIPS", 0},
+        {"scene", GV_FLAG_STRING, &c->scene, "NAME",
+         "only clips of this scene (folder name); a scene checkpoint sets its own", 0},
+        {"interval", GV_FLAG_INT, &c->interval, "N", "only clips of interval n; a scene checkpoint sets its own", 0},
     };
     memcpy(f, flags, sizeof flags);
     c->sampler = GV_SAMPLER_DEFAULT, c->compose = GV_COMPOSE_DEFAULT;
@@ -40,7 +43,7 @@ int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_rest
     gv_info("%s: %s checkpoint of %s, step %ld of %ld", c->ckpt, s->r.state.kind, s->r.cfg.name, s->r.state.step,
             s->r.state.steps);
     char gate_line[1024];
-    if (gv_restore_cli_gate(c->ckpt, o, gate_line, sizeof gate_line, &s->gate)) return -1;
+    if (gv_restore_cli_gate(c->ckpt, o, gate_line, sizeof gate_line, s)) return -1;
     fputs(gate_line, stdout);
     if (c->lpips && gv_lpips_load(&s->lpips, c->lpips)) return -1;
     gv_eval_init(&s->table, c->lpips ? &s->lpips : NULL);
@@ -73,24 +76,32 @@ int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o)
     if (c->split && strcmp(c->split, "all") && strcmp(c->split, "train") && strcmp(c->split, "eval"))
         return gv_fail("--split %s: expected train, eval or all", c->split);
     o->split = c->split && strcmp(c->split, "all") ? c->split : NULL;
+    if (c->interval < 0) return gv_fail("--interval %d: must be positive", c->interval);
+    o->scene = c->scene, o->interval = c->interval;
     o->use_cache = !c->no_cache;
     return 0;
 }
 
-int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, size_t size, const char **gate)
+int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, size_t size, gv_restore_session *s)
 {
     line[0] = '\0';
-    *gate = NULL;
+    s->gate = NULL;
     int is = gv_scene_checkpoint_is(ckpt);
     gv_scene_adaptation a;
     if (is <= 0) return is;
     if (gv_scene_checkpoint_read(ckpt, &a)) return -1;
+    /* adapters fitted to one scene at one sparsity restore only that scene's renders at it */
+    if ((o->scene && strcmp(o->scene, a.scene)) || (o->interval && o->interval != a.interval))
+        return gv_fail("%s: adapted to %s at n = %d, not to %s at n = %d", ckpt, a.scene, a.interval,
+                       o->scene ? o->scene : a.scene, o->interval ? o->interval : a.interval);
+    snprintf(s->scene, sizeof s->scene, "%s", a.scene);
+    o->scene = s->scene, o->interval = a.interval;
     o->keep_renders = !a.gate_open;
-    *gate = a.gate_open ? "open" : "closed";
+    s->gate = a.gate_open ? "open" : "closed";
     snprintf(line, size,
              "%s: adapted to %s at n = %d; gate %s: its held-back pairs %+.2f dB when restored (margin %+.2f dB), so "
              "the renders are %s\n",
-             ckpt, a.scene, a.interval, *gate, gv_scene_gate_change(&a), a.gate_margin_db,
+             ckpt, a.scene, a.interval, s->gate, gv_scene_gate_change(&a), a.gate_margin_db,
              a.gate_open ? "restored" : "left unchanged");
     return 0;
 }

@@ -8,29 +8,32 @@
 #include "gaussvid/restore.h"
 
 typedef struct {
-    const char *ckpt, *sampler, *compose, *split, *lpips;
+    const char *ckpt, *sampler, *compose, *split, *lpips, *scene;
     double t0, shift, blend;
-    int steps, samples, seed, no_cache;
+    int steps, samples, seed, no_cache, interval;
 } gv_restore_cli;
 
-#define GV_RESTORE_CLI_FLAGS 12
+#define GV_RESTORE_CLI_FLAGS 14
 
 /* Fills flags[0..GV_RESTORE_CLI_FLAGS) for c (with the defaults set in c). */
 void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *flags, const char *split_help);
 /* The restore options of the flags; fails (a usage error) naming the flag. */
 int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o);
-/* A scene checkpoint's gate (scene_adapt.h): sets o->keep_renders when it is closed and writes
- * the line that says what happens into line (empty for other checkpoints); *gate gets "open",
- * "closed" or NULL. */
-int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, size_t size, const char **gate);
 /* What a restore or eval run holds: the checkpoint, the LPIPS weights of --lpips, the table,
- * and a scene checkpoint's gate ("open", "closed" or NULL for other checkpoints). */
+ * and a scene checkpoint's gate ("open", "closed" or NULL for other checkpoints) with the scene
+ * it was adapted to. */
 typedef struct {
     gv_restorer r;
     gv_lpips lpips;
     gv_eval_table table;
     const char *gate;
+    char scene[GV_SCENE_NAME_MAX];
 } gv_restore_session;
+/* A scene checkpoint's gate and scope (scene_adapt.h): sets o->keep_renders when the gate is
+ * closed, restricts o to the scene and interval it was adapted to (failing when --scene or
+ * --interval asked for others) and writes the line that says what happens into line (empty
+ * for other checkpoints); s->gate gets "open", "closed" or NULL. */
+int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, size_t size, gv_restore_session *s);
 /* Loads the checkpoint (saying what it is; a scene checkpoint over its base), applies a scene
  * checkpoint's gate to o (printing the line that says what happens), loads the --lpips weights,
  * and makes o hand every restored clip to s->table. s is freed by gv_restore_cli_end whatever

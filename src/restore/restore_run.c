@@ -83,6 +83,21 @@ static int restore_one(gv_restorer *r, const gv_clip *clip, const char *name, co
     return rc;
 }
 
+/* Whether a clip of run id belongs to the run o asks for (its split, scene and interval). */
+static int run_selected(const gv_run_id *id, const gv_restore_options *o)
+{
+    return (!o->split || !strcmp(id->split, o->split)) && (!o->scene || !strcmp(id->scene, o->scene)) &&
+           (!o->interval || id->n == o->interval);
+}
+
+/* The manifest entry of a clip file (NULL when the manifest does not list it). */
+static const gv_manifest_clip *manifest_clip(const gv_manifest *man, const char *file)
+{
+    for (int i = 0; i < man->n_clips; i++)
+        if (!strcmp(man->clips[i].file, file)) return &man->clips[i];
+    return NULL;
+}
+
 static void progress_note(gv_progress *bar, long done, const char *note)
 {
     if (note[0]) gv_progress_update(bar, done, "%s", note);
@@ -100,6 +115,13 @@ int gv_restore_files(gv_restorer *r, const char *const *paths, int n_paths, cons
         gv_clip clip;
         if (gv_clip_read(paths[i], &clip)) {
             rc = -1;
+            break;
+        }
+        const gv_run_id *id = &clip.info.id;
+        if ((o->scene && strcmp(id->scene, o->scene)) || (o->interval && id->n != o->interval)) {
+            rc = gv_fail("%s: a clip of %s at n = %d, not of %s at n = %d", paths[i], id->scene, id->n,
+                         o->scene ? o->scene : id->scene, o->interval ? o->interval : id->n);
+            gv_clip_free(&clip);
             break;
         }
         char name[512];
@@ -124,22 +146,32 @@ int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore
     gv_manifest man;
     int found = 0, rc = 0;
     gv_manifest_init(&man, NULL);
-    if (o->use_cache) {
-        rc = gv_latent_set_load(dataset_dir, o->split, r->vae_path, &r->vae, &r->net.cfg, &set);
-    } else {
-        rc = gv_manifest_read(dataset_dir, &man, &found);
-        if (rc == 0 && !found) rc = gv_fail("%s: no manifest.json (not a dataset folder)", dataset_dir);
-    }
+    rc = gv_manifest_read(dataset_dir, &man, &found);
+    if (rc == 0 && !found) rc = gv_fail("%s: no manifest.json (not a dataset folder)", dataset_dir);
+    if (rc == 0 && o->use_cache) rc = gv_latent_set_load(dataset_dir, o->split, r->vae_path, &r->vae, &r->net.cfg, &set);
+    int count = o->use_cache ? set.count : man.n_clips;
+    /* selected[i]: clip i (of the latent set or of the manifest) is restored */
+    char *selected = rc == 0 ? calloc((size_t)count + 1, 1) : NULL;
+    if (rc == 0 && !selected) rc = gv_fail("restore: out of memory");
     int total = 0;
-    for (int i = 0; rc == 0 && i < (o->use_cache ? set.count : man.n_clips); i++)
-        total += o->use_cache || !o->split || !strcmp(man.clips[i].id.split, o->split);
-    if (rc == 0 && total == 0) rc = gv_fail("%s: the manifest lists no %s clips", dataset_dir, o->split ? o->split : "");
+    for (int i = 0; rc == 0 && i < count; i++) {
+        const gv_manifest_clip *entry = o->use_cache ? manifest_clip(&man, set.names[i]) : &man.clips[i];
+        selected[i] = entry && run_selected(&entry->id, o);
+        total += selected[i];
+    }
+    if (rc == 0 && total == 0) {
+        char what[256];
+        snprintf(what, sizeof what, "%s%s%s%s", o->split ? o->split : "", o->split ? " " : "",
+                 o->scene ? o->scene : "", o->scene ? " " : "");
+        if (o->interval) rc = gv_fail("%s: the manifest lists no %sclips at n = %d", dataset_dir, what, o->interval);
+        else rc = gv_fail("%s: the manifest lists no %sclips", dataset_dir, what);
+    }
     gv_progress bar;
     gv_progress_start(&bar, "restore", total);
     int done = 0;
     char note[64] = ""; /* o->each's last note */
-    for (int i = 0; rc == 0 && i < (o->use_cache ? set.count : man.n_clips); i++) {
-        if (!o->use_cache && o->split && strcmp(man.clips[i].id.split, o->split)) continue;
+    for (int i = 0; rc == 0 && i < count; i++) {
+        if (!selected[i]) continue;
         const char *name = o->use_cache ? set.names[i] : man.clips[i].file;
         char path[4096];
         gv_clip clip;
@@ -155,6 +187,7 @@ int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore
         progress_note(&bar, ++done, note);
     }
     gv_progress_finish(&bar);
+    free(selected);
     gv_latent_set_free(&set);
     gv_manifest_free(&man);
     return rc;

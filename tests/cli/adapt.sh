@@ -110,6 +110,19 @@ files_differ() { ! cmp -s "$1" "$2"; }
 check "open gate: the network restores" files_differ "${clips[0]}" "restored/$(basename "${clips[0]}")"
 expect 0 "restore one clip, gate closed" -- "$G" restore --ckpt closed.safetensors --clip "${clips[1]}" --out one --quiet
 has "left unchanged"
+# A scene checkpoint restores only its scene at its n: in a dataset with n = 4 and n = 6 it
+# takes the two n = 4 clips; a clip file or a selection of another n is refused.
+expect 0 "renders at n = 4 and 6" -- "$G" dataset build --scenes A --intervals 4,6 --iters 20 --clips-per-run 2 \
+    --seed 5 --out R46 --quiet --threads 1
+expect 0 "eval, scoped to n = 4" -- "$G" eval --ckpt open.safetensors --clips R46 --split all --json scoped.json --quiet
+check "only the n = 4 clips" grep -qE '"clips":[[:space:]]*2[,}]' scoped.json
+check "the JSON names the scene" grep -qE '"scene":[[:space:]]*"A"' scoped.json
+check "no n = 6 row" test "$(grep -oE '"n":[[:space:]]*[0-9]+' scoped.json | sort -u | tr -d ' \t')" = '"n":4'
+six=(R46/clips/A_n06_*.safetensors)
+expect 1 "a clip of another n" -- "$G" restore --ckpt open.safetensors --clip "${six[0]}" --out other --quiet
+one_line "a clip of A at n = 6, not of A at n = 4"
+expect 1 "--interval of another n" -- "$G" eval --ckpt open.safetensors --clips R46 --interval 6 --quiet
+one_line "adapted to A at n = 4, not to A at n = 6"
 
 # Bad inputs: one line naming the problem, exit 1, nothing written.
 expect 1 "too few training views" -- "$G" adapt "${AD[@]}" --interval 5 --out x.safetensors
