@@ -311,6 +311,9 @@ static void test_variants(void)
     gv_model_config back;
     CHECK(text && gv_model_config_parse(&back, text, "skip.json") == 0 && back.variant.skip && gv_model_config_equal(&c, &back));
     free(text);
+    /* the output forms exclude each other: naming one replaces the other */
+    CHECK(gv_model_config_set_variant(&c, "residual", NULL) == 0 && c.variant.residual && !c.variant.skip);
+    CHECK(gv_model_config_set_variant(&c, "skip", NULL) == 0 && c.variant.skip && !c.variant.residual);
     CHECK(gv_model_config_set_variant(&c, "skip=false", NULL) == 0 && !c.variant.skip);
     gv_model_config_preset(&c, "small");
     CHECK_FAILS_WITH(gv_model_config_set_variant(&c, "skip=yes", "--variant"), "variant.skip: \"yes\" is not true or false");

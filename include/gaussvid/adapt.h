@@ -21,6 +21,9 @@ typedef struct {
     int interval;                    /* n: the scene's training views are frames 0, n, 2n, ... */
     const char *base;                /* the cross-scene checkpoint (models/gaussvid-small.safetensors) */
     const char *config;              /* the network the base must be (preset or file; NULL: "small") */
+    const char *variant;             /* NULL: the base's; else a variant over it (gv_model_config_set_variant),
+                                        e.g. "residual": the output relearned from zero, starting at the identity */
+    int fresh_camera;                /* the camera encoder from its initialisation, not the base's */
     const char *out;                 /* the scene checkpoint */
     const char *work_dir;            /* NULL: out + ".work" */
     int downscale;                   /* scene images: 1, 2, 4, 8 (as splat train) */

@@ -37,6 +37,10 @@ int cmd_adapt(int argc, char **argv)
         {"out", GV_FLAG_STRING, &o.out, "FILE", "the scene checkpoint (adapters and gate); FILE.work keeps the work", 1},
         {"work", GV_FLAG_STRING, &o.work_dir, "DIR", "the work folder (default FILE.work): internal pairs, latents, resumable training", 0},
         {"config", GV_FLAG_STRING, &o.config, "PRESET|FILE", "the network the base must be (default small)", 0},
+        {"variant", GV_FLAG_STRING, &o.variant, "V",
+         "a variant over the base's, e.g. residual (the output relearned from zero: the adaptation starts at "
+         "the identity); docs/TRAINING.md", 0},
+        {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's", 0},
         {"iters", GV_FLAG_INT, &o.iters, "N", "3DGS iterations of each internal subset model (default 8000, as dataset build)", 0},
         {"downscale", GV_FLAG_INT, &o.downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
         {"hold-every", GV_FLAG_INT, &o.hold_every, "K", "hold back internal clips 1, 1 + K, 1 + 2K, ... for validation (default 3)", 0},
@@ -79,6 +83,7 @@ int cmd_adapt(int argc, char **argv)
     if (crop && gv_parse_crop("adapt", crop, &o.train.crop_h, &o.train.crop_w)) return 2;
     o.train.steps = steps, o.train.val_every = val_every, o.train.stop_after = stop_after;
     o.train.seed = (uint64_t)seed;
+    o.train.fresh_camera = o.fresh_camera; /* recorded in the training options */
     o.train.min_lr = o.train.lr_schedule == GV_LR_CONSTANT ? o.train.lr : 0.0;
 
     gv_adapt_report r;

@@ -289,7 +289,9 @@ int gv_model_config_set_variant(gv_model_config *c, const char *spec, const char
             rc = set_one(c, "per_frame", "true", src);
             if (!rc) c->variant.anchors = GV_ANCHORS_NONE;
         } else if (!strcmp(item, "skip") || !strcmp(item, "residual")) {
+            /* the two output forms exclude each other: naming one replaces the other */
             rc = set_one(c, item, "true", src);
+            if (!rc) rc = set_one(c, item[0] == 's' ? "residual" : "skip", "false", src);
         } else if (gv_camera_variant_from_name(item) >= 0) {
             rc = set_one(c, "camera", item, src);
         } else {

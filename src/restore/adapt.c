@@ -88,6 +88,18 @@ static int load_model_and_data(const gv_adapt_options *o, const char *pairs, ada
 {
     gv_latent_set all;
     if (gv_restorer_load(o->base, &x->base) || gv_dit_set_train_mode(&x->base.net, GV_DIT_FINETUNE)) return -1;
+    if (o->variant || o->fresh_camera) {
+        /* another output form or a fresh camera encoder: the network is built for the variant
+         * and takes the base's weights as `train` takes a base (a residual head from zero) */
+        gv_model_config cfg = x->base.cfg;
+        gv_train_state unused;
+        memset(&unused, 0, sizeof unused);
+        if (o->variant && gv_model_config_set_variant(&cfg, o->variant, "--variant")) return -1;
+        gv_dit_free(&x->base.net);
+        if (gv_train_model(&cfg, GV_OBJECTIVE_FINETUNE, o->base, o->fresh_camera, o->train.seed, &x->base.net, &unused))
+            return -1;
+        x->base.cfg = cfg;
+    }
     if (gv_latent_set_load(pairs, "train", x->base.vae_path, &x->base.vae, &x->base.cfg, &all)) return -1;
     return gv_latent_set_hold_back(&all, o->hold_every, &x->train, &x->held);
 }

@@ -206,6 +206,15 @@ int gv_scene_checkpoint_base(const char *path, const gv_train_state *state, cons
     return 0;
 }
 
+/* The base's network rebuilt for the variant the adaptation trained (adapt --variant, e.g. the
+ * residual output): the base's weights taken as fine-tuning takes a base; the adapters follow. */
+static int rebuild_for_variant(const char *base, const gv_model_config *cfg, gv_dit *net)
+{
+    int camera_loaded;
+    gv_dit_free(net);
+    return gv_dit_init(net, cfg, 0) || gv_checkpoint_load_base(base, net, 1, &camera_loaded) ? -1 : 0;
+}
+
 int gv_scene_checkpoint_load(const char *path, gv_restorer *r)
 {
     gv_st_file f;
@@ -222,8 +231,11 @@ int gv_scene_checkpoint_load(const char *path, gv_restorer *r)
     if (rc == 0) rc = gv_restorer_load(base, r); /* the base first: network, VAE, vae_path */
     if (rc == 0) {
         char *x = gv_model_config_to_json(&cfg), *y = gv_model_config_to_json(&r->cfg);
-        if (!x || !y || strcmp(x, y)) rc = gv_fail("%s: written for another model config than its base %s", path, base);
+        int same = x && y && !strcmp(x, y);
         free(x), free(y);
+        if (!same && !gv_config_same_network(&cfg, &r->cfg))
+            rc = gv_fail("%s: written for another model config than its base %s", path, base);
+        else if (!same) rc = rebuild_for_variant(base, &cfg, &r->net); /* adapt --variant */
     }
     if (rc == 0) rc = read_adapters(&f, &r->net);
     gv_st_close(&f);
