@@ -21,8 +21,9 @@ typedef struct {
     int interval;                    /* n: the scene's training views are frames 0, n, 2n, ... */
     const char *base;                /* the cross-scene checkpoint (models/gaussvid-small.safetensors) */
     const char *config;              /* the network the base must be (preset or file; NULL: "small") */
-    const char *variant;             /* NULL: the base's; else a variant over it (gv_model_config_set_variant),
-                                        e.g. "residual": the output relearned from zero, starting at the identity */
+    const char *variant;             /* a variant over the base's (gv_model_config_set_variant); default
+                                        "residual": the output relearned from zero, starting at the
+                                        identity; NULL or "base": the base's own */
     int fresh_camera;                /* the camera encoder from its initialisation, not the base's */
     const char *out;                 /* the scene checkpoint */
     const char *work_dir;            /* NULL: out + ".work" */
@@ -37,8 +38,8 @@ typedef struct {
     double gate_margin_db;           /* the gate opens when the held-back PSNR change exceeds this */
 } gv_adapt_options;
 
-/* The defaults (docs/ADAPT.md): 8000 iterations, every 3rd clip held back, 300 steps of 2
- * clips at lr 5e-4 decaying linearly to 0, t ~ U[0, 0.1], no curriculum, no progressive loss,
+/* The defaults (docs/ADAPT.md): the residual output, 8000 iterations, every 3rd clip held
+ * back, 300 steps of 2 clips at lr 1e-3 decaying linearly to 0, t ~ U[0, 0.1], no curriculum, no progressive loss,
  * validation every 50 steps; the gate with restore's default sampler and composition, margin 0. */
 void gv_adapt_defaults(gv_adapt_options *o);
 

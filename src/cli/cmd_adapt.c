@@ -38,15 +38,15 @@ int cmd_adapt(int argc, char **argv)
         {"work", GV_FLAG_STRING, &o.work_dir, "DIR", "the work folder (default FILE.work): internal pairs, latents, resumable training", 0},
         {"config", GV_FLAG_STRING, &o.config, "PRESET|FILE", "the network the base must be (default small)", 0},
         {"variant", GV_FLAG_STRING, &o.variant, "V",
-         "a variant over the base's, e.g. residual (the output relearned from zero: the adaptation starts at "
-         "the identity); docs/TRAINING.md", 0},
+         "a variant over the base's: residual (default: the output relearned from zero, so the adaptation "
+         "starts at the identity), or base (the base's own output); docs/TRAINING.md", 0},
         {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's", 0},
         {"iters", GV_FLAG_INT, &o.iters, "N", "3DGS iterations of each internal subset model (default 8000, as dataset build)", 0},
         {"downscale", GV_FLAG_INT, &o.downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
         {"hold-every", GV_FLAG_INT, &o.hold_every, "K", "hold back internal clips 1, 1 + K, 1 + 2K, ... for validation (default 3)", 0},
         {"steps", GV_FLAG_INT, &steps, "N", "fine-tuning steps (default 300)", 0},
         {"batch", GV_FLAG_INT, &o.train.batch, "B", "clips per step (default 2)", 0},
-        {"lr", GV_FLAG_DOUBLE, &o.train.lr, "LR", "AdamW learning rate at the start (default 5e-4)", 0},
+        {"lr", GV_FLAG_DOUBLE, &o.train.lr, "LR", "AdamW learning rate at the start (default 1e-3)", 0},
         {"lr-schedule", GV_FLAG_STRING, &schedule, "NAME", "linear (default) or cosine decay to 0, or constant", 0},
         {"t-max", GV_FLAG_DOUBLE, &o.train.t_max, "T", "timesteps t ~ U[0, T] (default 0.1)", 0},
         {"crop", GV_FLAG_STRING, &crop, "RxC", "train on random windows of R x C tokens (default: whole clips)", 0},

@@ -18,7 +18,8 @@ void gv_adapt_defaults(gv_adapt_options *o)
     gv_train_defaults(&o->train, GV_OBJECTIVE_FINETUNE);
     o->train.steps = 300;
     o->train.batch = 2;
-    o->train.lr = 5e-4;
+    o->train.lr = 1e-3;
+    o->variant = "residual";          /* step 0 is the identity: the early stop can keep "no change" */
     o->train.min_lr = 0.0;
     o->train.lr_schedule = GV_LR_LINEAR; /* the last updates at a vanishing rate (docs/TRAINING.md) */
     o->train.t_max = 0.1;             /* the restorer's t0 = 0.05 inside; where the base learns (RESULTS) */
@@ -88,13 +89,14 @@ static int load_model_and_data(const gv_adapt_options *o, const char *pairs, ada
 {
     gv_latent_set all;
     if (gv_restorer_load(o->base, &x->base) || gv_dit_set_train_mode(&x->base.net, GV_DIT_FINETUNE)) return -1;
-    if (o->variant || o->fresh_camera) {
+    const char *variant = o->variant && strcmp(o->variant, "base") ? o->variant : NULL; /* "base": its own */
+    if (variant || o->fresh_camera) {
         /* another output form or a fresh camera encoder: the network is built for the variant
          * and takes the base's weights as `train` takes a base (a residual head from zero) */
         gv_model_config cfg = x->base.cfg;
         gv_train_state unused;
         memset(&unused, 0, sizeof unused);
-        if (o->variant && gv_model_config_set_variant(&cfg, o->variant, "--variant")) return -1;
+        if (variant && gv_model_config_set_variant(&cfg, variant, "--variant")) return -1;
         gv_dit_free(&x->base.net);
         if (gv_train_model(&cfg, GV_OBJECTIVE_FINETUNE, o->base, o->fresh_camera, o->train.seed, &x->base.net, &unused))
             return -1;

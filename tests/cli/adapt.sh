@@ -124,9 +124,9 @@ one_line "a clip of A at n = 6, not of A at n = 4"
 expect 1 "--interval of another n" -- "$G" eval --ckpt open.safetensors --clips R46 --interval 6 --quiet
 one_line "adapted to A at n = 4, not to A at n = 6"
 
-# --variant residual: the output relearned from zero, so the step-0 validation is the
-# identity's loss exactly; the scene checkpoint holds the new head beside the adapters and
-# restores through a network rebuilt for the variant over its skip-form base.
+# The residual output (the default, given here by name): relearned from zero, so the step-0
+# validation is the identity's loss exactly; the scene checkpoint holds the new head beside
+# the adapters and restores through a network rebuilt for the variant over its base.
 expect 0 "adapt, residual output" -- "$G" adapt "${AD[@]}" --variant residual --fresh-camera --out res.safetensors
 step0=$(awk -F'\t' '$1 == 0 && $2 == "all" {print ($4 == $5)}' res.safetensors.work/val.tsv)
 check "residual: step 0 validates at the identity" test "$step0" = 1
@@ -134,7 +134,7 @@ check "residual: the head is stored" grep -q '"head.head.weight"' <("$G" st insp
 check "residual: the variant recorded" grep -q 'residual[^,]*true' <("$G" st inspect --json res.safetensors)
 expect 0 "eval, residual scene checkpoint" -- "$G" eval --ckpt res.safetensors --clips R --split all --json res.json --quiet
 check "residual: eval names the scene" grep -qE '"scene":[[:space:]]*"A"' res.json
-expect 1 "resume with another variant" -- "$G" adapt "${AD[@]}" --variant residual --out other.safetensors --work a.safetensors.work --quiet
+expect 1 "resume with another variant" -- "$G" adapt "${AD[@]}" --variant base --out other.safetensors --work a.safetensors.work --quiet
 one_line "another model config"
 
 # Bad inputs: one line naming the problem, exit 1, nothing written.
