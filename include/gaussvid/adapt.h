@@ -36,6 +36,7 @@ typedef struct {
     gv_sampler sampler;              /* how the gate restores the held-back pairs: as restore would */
     gv_compose compose;
     double gate_margin_db;           /* the gate opens when the held-back PSNR change exceeds this */
+    int gate_min_frames;             /* ... measured on at least this many held-back frames */
 } gv_adapt_options;
 
 /* The defaults (docs/ADAPT.md): the residual output, 8000 iterations, every 3rd clip held

@@ -32,6 +32,7 @@ typedef struct {
     double val_loss, val_identity;
     int gate_open;                  /* 1: restore; 0: leave the renders unchanged */
     double gate_margin_db;          /* the gate opens when the PSNR change exceeds this */
+    int gate_min_frames;            /* ... and at least this many held-back frames measured it */
     int gate_frames;                /* held-back frames with ground truth that were restored */
     double gate_psnr_base, gate_psnr_restored, gate_ssim_base, gate_ssim_restored;
     char gate_sampler[256];         /* the sampler and composition the gate restored with */

@@ -18,7 +18,9 @@ static void print_summary(const char *out, const gv_adapt_report *r)
            a->gate_open ? "open" : "closed", a->gate_psnr_base, a->gate_ssim_base, a->gate_psnr_restored,
            a->gate_ssim_restored, gv_scene_gate_change(a), a->gate_frames, a->gate_margin_db,
            a->gate_open ? ": restore and eval will restore this scene's renders"
-                        : ": restore and eval will leave this scene's renders unchanged");
+           : a->gate_frames < a->gate_min_frames ? ": too few held-back frames to trust (at least --gate-min-frames); "
+                                                   "restore and eval will leave this scene's renders unchanged"
+                                                 : ": restore and eval will leave this scene's renders unchanged");
     if (!r->already)
         printf("seconds: pairs %.1f, latents %.1f, fine-tuning %.1f, gate %.1f\n", a->seconds_pairs, a->seconds_latents,
                a->seconds_train, a->seconds_gate);
@@ -52,6 +54,8 @@ int cmd_adapt(int argc, char **argv)
         {"crop", GV_FLAG_STRING, &crop, "RxC", "train on random windows of R x C tokens (default: whole clips)", 0},
         {"val-every", GV_FLAG_INT, &val_every, "K", "validate on the held-back clips every K steps (default 50)", 0},
         {"gate-margin", GV_FLAG_DOUBLE, &o.gate_margin_db, "DB", "restore only when the held-back PSNR gains more than DB (default 0)", 0},
+        {"gate-min-frames", GV_FLAG_INT, &o.gate_min_frames, "K",
+         "... measured on at least K held-back frames (default 4; fewer is too little evidence)", 0},
         {"sampler", GV_FLAG_STRING, &sampler, "NAME", "the sampler the gate restores with (default " GV_SAMPLER_DEFAULT ", restore's)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "seed of the internal 3DGS runs and the fine-tuning (default 0)", 0},
         {"stop-after", GV_FLAG_INT, &stop_after, "N", "stop the fine-tuning after step N (run again to continue)", 0},
@@ -70,9 +74,9 @@ int cmd_adapt(int argc, char **argv)
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
     if (steps < 1 || o.train.batch < 1 || val_every < 1 || stop_after < 0 || seed < 0 || o.interval < 2 ||
-        o.iters < 1 || o.hold_every < 2 || !(o.train.lr > 0) || !(o.train.t_max > 0 && o.train.t_max <= 1)) {
+        o.iters < 1 || o.hold_every < 2 || o.gate_min_frames < 1 || !(o.train.lr > 0) || !(o.train.t_max > 0 && o.train.t_max <= 1)) {
         fprintf(stderr, "gaussvid adapt: --interval needs n >= 2, --hold-every K >= 2; --steps, --batch, --iters, "
-                        "--val-every and --lr must be positive, --t-max in (0, 1], --seed and --stop-after not negative\n");
+                        "--val-every, --gate-min-frames and --lr must be positive, --t-max in (0, 1], --seed and --stop-after not negative\n");
         return 2;
     }
     if (gv_lr_kind_from_name(schedule, &o.train.lr_schedule) ||

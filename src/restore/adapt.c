@@ -29,6 +29,7 @@ void gv_adapt_defaults(gv_adapt_options *o)
     o->sampler = gv_sampler_default();
     gv_compose_from_name(GV_COMPOSE_DEFAULT, &o->compose);
     o->gate_margin_db = 0.0;
+    o->gate_min_frames = 4;           /* two frames opened livingroom n = 26 and lost 0.68 dB (RESULTS) */
 }
 
 /* The base: a checkpoint (not a scene's) of the network o->config names, whose VAE gives each
@@ -175,8 +176,8 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
     a->train_clips = x->train.count, a->held_back = x->held.count;
     a->best_step = r->best.step;
     a->val_gain_db = r->best.gain_db, a->val_loss = r->best.loss, a->val_identity = r->best.identity;
-    a->gate_margin_db = o->gate_margin_db;
-    a->gate_open = gv_scene_gate_change(a) > o->gate_margin_db;
+    a->gate_margin_db = o->gate_margin_db, a->gate_min_frames = o->gate_min_frames;
+    a->gate_open = gv_scene_gate_change(a) > o->gate_margin_db && a->gate_frames >= o->gate_min_frames;
     if (write_checkpoint(o, work, x, r)) return -1;
     r->done = 1;
     return 0;

@@ -88,6 +88,7 @@ static const field fields[] = {
     NUM("held_back", FIELD_INT, held_back), NUM("best_step", FIELD_LONG, best_step),
     NUM("val_gain_db", FIELD_DOUBLE, val_gain_db), NUM("val_loss", FIELD_DOUBLE, val_loss),
     NUM("val_identity", FIELD_DOUBLE, val_identity), NUM("gate_margin_db", FIELD_DOUBLE, gate_margin_db),
+    NUM("gate_min_frames", FIELD_INT, gate_min_frames),
     NUM("gate_frames", FIELD_INT, gate_frames), NUM("gate_psnr_base", FIELD_DOUBLE, gate_psnr_base),
     NUM("gate_psnr_restored", FIELD_DOUBLE, gate_psnr_restored), NUM("gate_ssim_base", FIELD_DOUBLE, gate_ssim_base),
     NUM("gate_ssim_restored", FIELD_DOUBLE, gate_ssim_restored), TEXT("gate_sampler", gate_sampler),
