@@ -8,7 +8,7 @@
 LAYERS='
 core    : -           : core camera
 io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files npy json
-scene   : io          : scene synth reproject
+scene   : io          : scene synth reproject scene_colmap
 splat   : scene       : splat splat_train render coverage
 nn      : core        : tensor ops optim nn
 model   : io nn       : model_config dit vae plucker weight_names umt5

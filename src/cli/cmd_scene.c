@@ -3,6 +3,7 @@
 
 static const gv_subcommand scene_commands[] = {
     {"info", cmd_scene_info, "validate a scene folder and describe it (frames, cameras, split)"},
+    {"colmap", cmd_scene_colmap, "a scene folder from photos: COLMAP features, matching, mapping, undistortion"},
     {"synth", cmd_scene_synth, "ray-trace a procedural room scene in the shared folder format"},
 };
 

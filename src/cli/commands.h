@@ -23,6 +23,7 @@ int cmd_model_import(int argc, char **argv);
 int cmd_scene(int argc, char **argv);
 int cmd_scene_info(int argc, char **argv);
 int cmd_scene_synth(int argc, char **argv);
+int cmd_scene_colmap(int argc, char **argv);
 int cmd_splat(int argc, char **argv);
 int cmd_splat_export(int argc, char **argv);
 int cmd_splat_train(int argc, char **argv);

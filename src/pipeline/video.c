@@ -17,18 +17,8 @@
 
 int pipeline_find_ffmpeg(const gv_reconstruct_options *o, char *out, size_t size)
 {
-    if (o->ffmpeg) {
-        if (access(o->ffmpeg, X_OK)) return gv_fail("%s: not an executable ffmpeg program", o->ffmpeg);
-        snprintf(out, size, "%s", o->ffmpeg);
-        return 0;
-    }
-    const char *path = getenv("PATH");
-    char dirs[8192];
-    snprintf(dirs, sizeof dirs, "%s", path ? path : "/usr/bin:/bin");
-    for (char *save = NULL, *d = strtok_r(dirs, ":", &save); d; d = strtok_r(NULL, ":", &save)) {
-        snprintf(out, size, "%s/ffmpeg", d);
-        if (!access(out, X_OK)) return 0;
-    }
+    if (gv_find_program(o->ffmpeg ? o->ffmpeg : "ffmpeg", out, size) == 0) return 0;
+    if (o->ffmpeg) return gv_fail("%s: not an executable ffmpeg program", o->ffmpeg);
     return gv_fail("ffmpeg is not installed: the video stage needs Debian's ffmpeg (scripts/setup.sh installs it; "
                    "or stop earlier with --stop-after evaluate)");
 }
