@@ -9,5 +9,5 @@ static const gv_subcommand scene_commands[] = {
 
 int cmd_scene(int argc, char **argv)
 {
-    return gv_run_subcommand("scene", scene_commands, 2, argc, argv);
+    return gv_run_subcommand("scene", scene_commands, (int)(sizeof scene_commands / sizeof scene_commands[0]), argc, argv);
 }

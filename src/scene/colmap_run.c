@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 
 #include "gaussvid/colmap.h"
 #include "gaussvid/core.h"
@@ -71,7 +72,7 @@ static int list_photos(const gv_colmap_run_options *o, photo_list *p)
         char path[4400];
         gv_image img = {0};
         snprintf(path, sizeof path, "%s/%s", o->images_dir, p->names[i]);
-        if (gv_image_read(path, &img)) rc = gv_fail_context("%s: unreadable photo", path);
+        if (gv_image_read(path, &img)) rc = -1; /* the reader's line names the file */
         else if (i == 0) w = img.width, h = img.height;
         else if (o->single_camera && (img.width != w || img.height != h))
             rc = gv_fail("%s: %dx%d, but %s is %dx%d: photos of one camera share a size", path, img.width, img.height,
@@ -81,6 +82,24 @@ static int list_photos(const gv_colmap_run_options *o, photo_list *p)
     }
     gv_progress_finish(&bar);
     return rc;
+}
+
+/* Removes the models of an earlier run (sparse/0, sparse/1, ...: the files COLMAP writes
+ * there), so that the largest model is this run's. */
+static void remove_old_models(const char *sparse)
+{
+    static const char *const files[] = {"cameras.bin", "images.bin", "points3D.bin", "project.ini", "frames.bin",
+                                        "rigs.bin"};
+    for (int k = 0;; k++) {
+        char dir[4200], path[4300];
+        snprintf(dir, sizeof dir, "%s/%d", sparse, k);
+        if (!gv_dir_exists(dir)) break;
+        for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+            snprintf(path, sizeof path, "%s/%s", dir, files[i]);
+            remove(path);
+        }
+        rmdir(dir);
+    }
 }
 
 /* One COLMAP step; fails naming it and the log. */
@@ -106,9 +125,11 @@ static int largest_model(const char *sparse, gv_colmap_run_result *r, int *best)
         if (!gv_dir_exists(dir)) break;
         gv_colmap_model m;
         memset(&m, 0, sizeof m);
-        if (gv_colmap_read_bin(dir, &m)) return gv_fail_context("the model COLMAP mapped");
+        char images[4300];
+        snprintf(images, sizeof images, "%s/images.bin", dir); /* its cameras are still distorted */
+        if (gv_colmap_read_images_bin(images, &m)) return gv_fail_context("the model COLMAP mapped");
         r->models++;
-        if (m.n_images > r->registered) r->registered = m.n_images, *best = k, r->points = m.n_points;
+        if (m.n_images > r->registered) r->registered = m.n_images, *best = k;
         gv_colmap_free(&m);
     }
     return 0;
@@ -138,13 +159,14 @@ static int copy_file(const char *from, const char *to)
 
 /* The undistorted model as the scene folder: images/ copied, sparse/0 as text, then the
  * scene loaded (every check of gv_scene_load) and its transforms.json and points3D.ply. */
-static int write_scene(const gv_colmap_run_options *o, const char *undistorted)
+static int write_scene(const gv_colmap_run_options *o, const char *undistorted, gv_colmap_run_result *r)
 {
     char sparse[4200], dir[4200], from[4600], to[4600];
     gv_colmap_model m;
     memset(&m, 0, sizeof m);
     snprintf(sparse, sizeof sparse, "%s/sparse", undistorted);
     if (gv_colmap_read_bin(sparse, &m)) return gv_fail_context("the undistorted model");
+    r->points = m.n_points;
     int rc = 0;
     for (int i = 0; i < m.n_images && rc == 0; i++) {
         snprintf(from, sizeof from, "%s/images/%s", undistorted, m.images[i].name);
@@ -189,8 +211,9 @@ int gv_scene_colmap(const gv_colmap_run_options *o, gv_colmap_run_result *r)
     snprintf(matcher, sizeof matcher, "%s_matcher", o->matcher);
     snprintf(threads, sizeof threads, "%d", o->threads > 0 ? o->threads : -1);
     if (rc == 0) rc = gv_mkdirs(work) || gv_mkdirs(sparse);
-    if (rc == 0) { /* a fresh database: COLMAP would add to an old one */
+    if (rc == 0) { /* a fresh database and no old models: COLMAP would add to an old database */
         remove(db);
+        remove_old_models(sparse);
         size_t size = (size_t)photos.n * GV_COLMAP_MAX_NAME + 1, len = 0;
         char *text = malloc(size);
         if (!text) rc = gv_fail("out of memory");
@@ -211,7 +234,8 @@ int gv_scene_colmap(const gv_colmap_run_options *o, gv_colmap_run_result *r)
                          "--Mapper.num_threads", threads, NULL};
     if (rc == 0) rc = colmap_step(extract, log, &r->seconds[0]);
     if (rc == 0) rc = colmap_step(match, log, &r->seconds[1]);
-    if (rc == 0) rc = colmap_step(map, log, &r->seconds[2]);
+    /* The mapper fails when it finds no initial pair: that is "0 registered", said below. */
+    if (rc == 0 && colmap_step(map, log, &r->seconds[2])) gv_info("%s", gv_last_error());
     int best = -1;
     if (rc == 0) rc = largest_model(sparse, r, &best);
     int needed = (int)ceil(o->min_registered * photos.n);
@@ -224,6 +248,6 @@ int gv_scene_colmap(const gv_colmap_run_options *o, gv_colmap_run_result *r)
     const char *undistort[] = {colmap, "image_undistorter", "--image_path", o->images_dir, "--input_path", model,
                                "--output_path", undistorted, "--output_type", "COLMAP", NULL};
     if (rc == 0) rc = colmap_step(undistort, log, &r->seconds[3]);
-    if (rc == 0) rc = write_scene(o, undistorted);
+    if (rc == 0) rc = write_scene(o, undistorted, r);
     return rc;
 }
