@@ -97,6 +97,8 @@ static cJSON *inputs_json(const gv_reconstruct_options *o)
     cJSON_AddNumberToObject(j, "refine_weight", o->refine_weight);
     cJSON_AddStringToObject(j, "checkpoint", o->ckpt);
     cJSON_AddBoolToObject(j, "adapt", o->adapt);
+    cJSON_AddNumberToObject(j, "adapt_steps", o->adapt ? (double)o->adapt_options.train.steps : 0);
+    cJSON_AddStringToObject(j, "adapt_config", o->adapt && o->adapt_options.config ? o->adapt_options.config : "");
     cJSON_AddNumberToObject(j, "downscale", o->downscale);
     cJSON_AddNumberToObject(j, "seed", (double)o->seed);
     if (o->lpips) cJSON_AddStringToObject(j, "lpips", o->lpips);
@@ -167,16 +169,8 @@ int pipeline_doc_run(pipeline_run *r)
         const cJSON *n = cJSON_GetObjectItem(run, "interval");
         if (cJSON_IsNumber(n) && n->valueint == r->n) found = run;
     }
-    if (found) {
-        const cJSON *was = cJSON_GetObjectItem(found, "inputs");
-        if (!was || !cJSON_Compare(was, inputs, 1)) {
-            char what[256];
-            describe_difference(was, inputs, what, sizeof what);
-            cJSON_Delete(inputs);
-            return gv_fail("%s/metrics.json: n = %d was made with %s: use another --out folder", r->opt->out_dir,
-                           r->n, what);
-        }
-        cJSON_Delete(inputs);
+    if (found) { /* the stages' records say what they were made from (pipeline_stage_done) */
+        cJSON_ReplaceItemInObject(found, "inputs", inputs);
         r->run = found;
         return 0;
     }
@@ -200,17 +194,37 @@ int pipeline_doc_write(const pipeline_run *r)
     return rc;
 }
 
-int pipeline_stage_done(const pipeline_run *r, const char *name)
+/* The run's inputs that a stage depends on: the keys listed (space-separated). */
+static cJSON *stage_inputs(const pipeline_run *r, const char *keys)
+{
+    cJSON *all = cJSON_GetObjectItem(r->run, "inputs"), *j = cJSON_CreateObject();
+    char list[256];
+    snprintf(list, sizeof list, "%s", keys);
+    for (char *save = NULL, *k = strtok_r(list, " ", &save); k; k = strtok_r(NULL, " ", &save)) {
+        const cJSON *v = cJSON_GetObjectItem(all, k);
+        cJSON_AddItemToObject(j, k, v ? cJSON_Duplicate(v, 1) : cJSON_CreateNull());
+    }
+    return j;
+}
+
+int pipeline_stage_done(const pipeline_run *r, const char *name, const char *keys, char *why, size_t size)
 {
     const cJSON *stages = cJSON_GetObjectItem(r->run, "stages");
+    why[0] = 0;
     for (const cJSON *s = stages ? stages->child : NULL; s; s = s->next) {
         const cJSON *n = cJSON_GetObjectItem(s, "name");
-        if (cJSON_IsString(n) && !strcmp(n->valuestring, name)) return 1;
+        if (!cJSON_IsString(n) || strcmp(n->valuestring, name)) continue;
+        cJSON *now = stage_inputs(r, keys);
+        const cJSON *was = cJSON_GetObjectItem(s, "inputs");
+        int same = was && cJSON_Compare(was, now, 1);
+        if (!same) describe_difference(was, now, why, size);
+        cJSON_Delete(now);
+        return same;
     }
     return 0;
 }
 
-int pipeline_stage_record(pipeline_run *r, const char *name, double seconds, double cpu_seconds)
+int pipeline_stage_record(pipeline_run *r, const char *name, const char *keys, double seconds, double cpu_seconds)
 {
     cJSON *stages = cJSON_GetObjectItem(r->run, "stages");
     cJSON *s = cJSON_CreateObject();
@@ -218,6 +232,7 @@ int pipeline_stage_record(pipeline_run *r, const char *name, double seconds, dou
     cJSON_AddNumberToObject(s, "seconds", seconds);
     cJSON_AddNumberToObject(s, "cpu_seconds", cpu_seconds);
     cJSON_AddStringToObject(s, "summary", r->summary);
+    cJSON_AddItemToObject(s, "inputs", stage_inputs(r, keys));
     cJSON_AddItemToArray(stages, s);
     return pipeline_doc_write(r);
 }

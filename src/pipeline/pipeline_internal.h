@@ -74,10 +74,13 @@ int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, cJ
  * saying what differs), or a new one listing the plan's frames. */
 int pipeline_doc_run(pipeline_run *r);
 int pipeline_doc_write(const pipeline_run *r);
-/* 1 when the run's "stages" lists the stage as finished. */
-int pipeline_stage_done(const pipeline_run *r, const char *name);
-/* Records a finished stage with its wall and CPU seconds and r->summary, and writes the file. */
-int pipeline_stage_record(pipeline_run *r, const char *name, double seconds, double cpu_seconds);
+/* 1 when the run's "stages" lists the stage as finished from the same inputs (the keys of
+ * the run's "inputs" listed, space-separated); else 0, and why says which input changed when
+ * the stage was finished from other ones. */
+int pipeline_stage_done(const pipeline_run *r, const char *name, const char *keys, char *why, size_t size);
+/* Records a finished stage with its wall and CPU seconds, r->summary and its inputs (keys),
+ * and writes the file. */
+int pipeline_stage_record(pipeline_run *r, const char *name, const char *keys, double seconds, double cpu_seconds);
 /* Drops the records of the stage and of every stage after it. */
 void pipeline_stage_forget(pipeline_run *r, const char *name);
 /* The restorer object of metrics.json for a checkpoint (adapt: the scene checkpoint of --adapt). */

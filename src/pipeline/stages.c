@@ -14,17 +14,18 @@ typedef struct {
     const char *name;
     int (*run)(pipeline_run *r);
     int adapt_only;                 /* runs only with --adapt */
+    const char *inputs;             /* the options it depends on (keys of metrics.json's "inputs") */
     const char *outputs[4];         /* in DIR/nN; "frames/X" means every evaluated frame's PNG */
 } stage;
 
 static const stage STAGES[] = {
-    {"train", pipeline_train, 0, {"sparse.ply", "sparse.splat"}},
-    {"render", pipeline_render, 0, {"frames/render"}},
-    {"adapt", pipeline_adapt, 1, {"restorer.safetensors"}},
-    {"restore", pipeline_restore, 0, {"frames/restored"}},
-    {"refine", pipeline_refine, 0, {"refined.ply", "refined.splat", "frames/refined"}},
-    {"evaluate", pipeline_evaluate, 0, {NULL}},
-    {"video", pipeline_video, 0, {"flythrough.mp4"}},
+    {"train", pipeline_train, 0, "iters seed downscale", {"sparse.ply", "sparse.splat"}},
+    {"render", pipeline_render, 0, "", {"frames/render"}},
+    {"adapt", pipeline_adapt, 1, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}},
+    {"restore", pipeline_restore, 0, "checkpoint adapt seed", {"frames/restored"}},
+    {"refine", pipeline_refine, 0, "refine_iters refine_weight", {"refined.ply", "refined.splat", "frames/refined"}},
+    {"evaluate", pipeline_evaluate, 0, "lpips", {NULL}},
+    {"video", pipeline_video, 0, "fps", {"flythrough.mp4"}},
 };
 #define N_STAGES ((int)(sizeof STAGES / sizeof STAGES[0]))
 
@@ -114,9 +115,15 @@ static int run_interval(pipeline_run *r, int last)
     for (int i = 0; i <= last; i++) {
         const stage *s = &STAGES[i];
         if (s->adapt_only && !r->opt->adapt) continue;
-        if (!redo && pipeline_stage_done(r, s->name) && outputs_exist(r, s)) {
-            gv_info("n=%d %s: done before, skipped", r->n, s->name);
-            continue;
+        char why[256];
+        if (!redo && pipeline_stage_done(r, s->name, s->inputs, why, sizeof why)) {
+            if (outputs_exist(r, s)) {
+                gv_info("n=%d %s: done before, skipped", r->n, s->name);
+                continue;
+            }
+            gv_info("n=%d %s: some of its files are missing: done again", r->n, s->name);
+        } else if (!redo && why[0]) {
+            gv_info("n=%d %s: made before with %s: done again", r->n, s->name, why);
         }
         redo = 1;
         pipeline_stage_forget(r, s->name);
@@ -124,7 +131,7 @@ static int run_interval(pipeline_run *r, int last)
         double wall = gv_now(), cpu = cpu_seconds();
         if (s->run(r)) return gv_fail_context("n=%d %s", r->n, s->name);
         wall = gv_now() - wall, cpu = cpu_seconds() - cpu;
-        if (pipeline_stage_record(r, s->name, wall, cpu)) return -1;
+        if (pipeline_stage_record(r, s->name, s->inputs, wall, cpu)) return -1;
         printf("n=%d %s: %s (%.1f s, %.1f s CPU)\n", r->n, s->name, r->summary, wall, cpu);
         fflush(stdout);
     }

@@ -126,8 +126,17 @@ cp R/metrics.json metrics_first.json
 expect 0 "rerun" -- "$G" reconstruct "${RC[@]}" --out R --stop-after $LAST
 check "every stage skipped" test "$(grep -c 'done before, skipped' "$T/err")" -eq $([ $HAVE_FFMPEG = 1 ] && echo 6 || echo 5)
 check "metrics.json unchanged" cmp -s R/metrics.json metrics_first.json
-expect 1 "other inputs" -- "$G" reconstruct "${RC[@]}" --iters 61 --out R
-one_line "n = 6 was made with iters 60, now 61"
+# Other refinement options: the stages before the refinement are kept, it and the later ones redone.
+cp -r R R2
+expect 0 "other refinement" -- "$G" reconstruct "${RC[@]}" --refine-iters 41 --out R2 --stop-after $LAST
+check "train, render, restore kept" test "$(grep -c 'done before, skipped' "$T/err")" -eq 3
+check "the refinement redone" grep -q "n=6 refine: made before with refine_iters 40, now 41: done again" "$T/err"
+check "refine recorded with its inputs" python3 -c "
+import json; r = json.load(open('R2/metrics.json'))['runs'][0]
+s = {s['name']: s for s in r['stages']}
+assert s['refine']['inputs'] == {'refine_iters': 41, 'refine_weight': 0.3}, s['refine']
+assert s['train']['inputs'] == {'iters': 60, 'seed': 0, 'downscale': 1}, s['train']
+assert r['inputs']['refine_iters'] == 41"
 rm R/n6/frames/restored/frame_00013.png
 cp R/n6/refined.ply refined_first.ply
 expect 0 "a lost frame" -- "$G" reconstruct "${RC[@]}" --out R --stop-after $LAST
