@@ -71,7 +71,18 @@ check "train skipped" grep -q "n=6 train: done before, skipped" "$T/err"
 check "the sparse model kept" cmp -s R/n6/sparse.ply sparse_first.ply
 check "train, render" test "$(stages R/metrics.json)" = "train render"
 check "20 renders" test "$(ls R/n6/frames/render | wc -l)" -eq 20
-expect 0 "all stages" -- "$G" reconstruct "${RC[@]}" --out R --stop-after $LAST
+done_stages="train render"
+i=2
+for st in restore refine evaluate video; do
+    [ $st = video ] && [ $HAVE_FFMPEG = 0 ] && break
+    expect 0 "stop after $st" -- "$G" reconstruct "${RC[@]}" --out R --stop-after $st
+    check "$i stages skipped before $st" test "$(grep -c 'done before, skipped' "$T/err")" -eq $i
+    done_stages="$done_stages $st"
+    check "stages recorded up to $st" test "$(stages R/metrics.json)" = "$done_stages"
+    cat "$T/out" >>all_out
+    i=$((i + 1))
+done
+cp all_out "$T/out"
 has "n=6 restore: 8 clips restored"
 has "n=6 evaluate: PSNR sparse"
 for d in render restored refined; do
@@ -184,6 +195,14 @@ import json; r = json.load(open('A/metrics.json'))['runs'][0]
 assert r['restorer']['kind'] == 'scene' and r['restorer']['gate'] in ('open', 'closed'), r['restorer']
 assert r['restorer']['checkpoint'] == 'A/n6/restorer.safetensors'
 assert [s['name'] for s in r['stages']] == ['train', 'render', 'adapt', 'restore']"
+# A scene checkpoint as --ckpt: its gate decides, metrics.json says which.
+expect 0 "a scene checkpoint" -- "$G" reconstruct "${RC[@]}" --ckpt A/n6/restorer.safetensors --out SC --stop-after restore
+check "the scene checkpoint's gate recorded" python3 -c "
+import json; d = json.load(open('SC/metrics.json')); r = d['runs'][0]['restorer']
+assert d['restorer']['kind'] == 'scene' and d['restorer']['gate'] == r['gate'] and r['gate'] in ('open', 'closed')"
+if grep -q "gate is closed" "$T/out"; then
+    check "a closed gate keeps the renders" cmp -s SC/n6/frames/render/frame_00001.png SC/n6/frames/restored/frame_00001.png
+fi
 expect 1 "stop after adapt without --adapt" -- "$G" reconstruct "${RC[@]}" --out A --stop-after adapt
 one_line "--stop-after adapt: the adapt stage runs only with --adapt"
 
