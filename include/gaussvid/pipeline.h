@@ -48,6 +48,11 @@ typedef struct {
     const char *ffmpeg;          /* the ffmpeg program (NULL: "ffmpeg" on the PATH) */
     const char *stop_after;      /* a stage name: stop after it (NULL: run every stage) */
     uint64_t seed;
+    /* Called after each stage that ran (not the skipped ones) with its one-line summary and
+     * its wall and process CPU seconds (may be NULL). */
+    void (*on_stage)(void *ctx, int interval, const char *stage, const char *summary, double seconds,
+                     double cpu_seconds);
+    void *on_stage_ctx;
 } gv_reconstruct_options;
 
 /* The defaults (docs/RECONSTRUCT.md): 8000 sparse iterations, 1000 refinement iterations at

@@ -31,6 +31,12 @@ static int parse_intervals(const char *text, gv_reconstruct_options *o)
     return o->n_intervals ? 0 : gv_fail("--interval: empty");
 }
 
+static void print_stage(void *ctx, int n, const char *stage, const char *summary, double seconds, double cpu)
+{
+    printf("n=%d %s: %s (%.1f s, %.1f s CPU)\n", n, stage, summary, seconds, cpu);
+    fflush(stdout);
+}
+
 int cmd_reconstruct(int argc, char **argv)
 {
     gv_reconstruct_options o;
@@ -78,6 +84,7 @@ int cmd_reconstruct(int argc, char **argv)
         return 2;
     }
     o.seed = (uint64_t)seed;
+    o.on_stage = print_stage;
     o.adapt_options.train.steps = adapt_steps;
     o.adapt_options.train.seed = (uint64_t)seed;
     if (gv_reconstruct(&o)) return gv_report_failure();

@@ -132,8 +132,7 @@ static int run_interval(pipeline_run *r, int last)
         if (s->run(r)) return gv_fail_context("n=%d %s", r->n, s->name);
         wall = gv_now() - wall, cpu = cpu_seconds() - cpu;
         if (pipeline_stage_record(r, s->name, s->inputs, wall, cpu)) return -1;
-        printf("n=%d %s: %s (%.1f s, %.1f s CPU)\n", r->n, s->name, r->summary, wall, cpu);
-        fflush(stdout);
+        if (r->opt->on_stage) r->opt->on_stage(r->opt->on_stage_ctx, r->n, s->name, r->summary, wall, cpu);
     }
     return 0;
 }
