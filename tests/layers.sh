@@ -8,7 +8,7 @@
 LAYERS='
 core    : -           : core camera
 io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files npy json
-scene   : io          : scene synth reproject
+scene   : io          : scene synth reproject scene_colmap
 splat   : scene       : splat splat_train render coverage
 nn      : core        : tensor ops optim nn
 model   : io nn       : model_config dit vae plucker weight_names umt5
@@ -16,8 +16,9 @@ data    : splat       : dataset internal_pairs
 train   : model data  : train condition checkpoint vae_train model_import scene_adapt
 restore : train       : restore adapt
 eval    : restore     : eval lpips
+pipeline: eval        : pipeline
 bench   : restore     : -
-cli     : eval bench  : -
+cli     : pipeline bench : -
 '
 cd "${1:?usage: bash tests/layers.sh SOURCE_DIR}" || exit 1
 declare -A below owner allowed

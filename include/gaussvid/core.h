@@ -95,6 +95,12 @@ int gv_atomic_sweep_beside(const char *path);
  * last_step, drops the later ones and a last row cut short, so a run resumed from the
  * checkpoint of last_step appends each step once (src/core/step_log.c). */
 int gv_step_log_rewind(const char *path, long last_step);
+/* External programs (src/core/process.c): the path of a program (a name with a '/' as it is,
+ * else the first executable on the PATH) into out; -1 when there is none (no message). */
+int gv_find_program(const char *name, char *out, size_t size);
+/* Runs argv[0] (a path) with argv, stdin from /dev/null, stdout and stderr appended to log;
+ * returns its exit status (128 + signal when killed), or -1 with a message when it cannot start. */
+int gv_run_logged(const char *const argv[], const char *log);
 /* Writes text and a final newline to path atomically (JSON documents, manifests). */
 int gv_write_text_atomic(const char *path, const char *text);
 

@@ -107,6 +107,11 @@ void gv_clip_free(gv_clip *clip);
 uint8_t *gv_clip_frame(uint8_t *frames, const gv_clip_info *info, int f);
 /* Sets frame f's intrinsics and pose from a camera. */
 void gv_clip_set_camera(gv_clip *clip, int f, const gv_camera *cam);
+/* Fills frames 0..4 of a clip allocated for its info (clip_fill.c): frame indices, image
+ * names and cameras, inputs[f] and targets[f] (RGB images of the clip's size). Fails naming
+ * the frame whose image has another size. */
+int gv_clip_fill(gv_clip *clip, const int frames[GV_CLIP_FRAMES], const gv_image *const inputs[GV_CLIP_FRAMES],
+                 const gv_image *const targets[GV_CLIP_FRAMES], const gv_camera *const cameras[GV_CLIP_FRAMES]);
 /* Checks the fields of info (the rules the reader applies); fails naming `what`. */
 int gv_clip_check_info(const gv_clip_info *info, const char *what);
 /* Writes the clip atomically. */

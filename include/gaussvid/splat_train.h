@@ -204,6 +204,12 @@ typedef struct {
     double gaussians_per_pixel;
     double initial_opacity;     /* 0: the mode's own (reference 0.1, MCMC 0.5) */
     const char *progress_label; /* NULL: no progress bar */
+    /* Refinement (docs/RECONSTRUCT.md): training continues from a copy of this model at its
+     * full SH degree instead of starting from the points (NULL: from the points). Borrowed. */
+    const gv_gaussians *initial;
+    /* The loss of view i (and its gradient) is scaled by view_weights[i]: down-weighted
+     * supervision by restored frames (NULL: every view 1). Borrowed, n_views long. */
+    const float *view_weights;
 } gv_splat_train_options;
 
 enum { GV_PHASE_RENDER, GV_PHASE_LOSS, GV_PHASE_BACKWARD, GV_PHASE_DENSIFY, GV_PHASE_ADAM,

@@ -23,6 +23,7 @@ int cmd_model_import(int argc, char **argv);
 int cmd_scene(int argc, char **argv);
 int cmd_scene_info(int argc, char **argv);
 int cmd_scene_synth(int argc, char **argv);
+int cmd_scene_colmap(int argc, char **argv);
 int cmd_splat(int argc, char **argv);
 int cmd_splat_export(int argc, char **argv);
 int cmd_splat_train(int argc, char **argv);
@@ -43,5 +44,6 @@ int cmd_train(int argc, char **argv);
 int cmd_restore(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 int cmd_adapt(int argc, char **argv);
+int cmd_reconstruct(int argc, char **argv);
 
 #endif

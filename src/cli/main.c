@@ -12,6 +12,7 @@
 #define GAUSSVID_VERSION "0.1.0"
 
 static const gv_subcommand commands[] = {
+    {"reconstruct", cmd_reconstruct, "from a scene to a sparse 3DGS, restored renders, a refined model, metrics, a video"},
     {"scene", cmd_scene, "scenes: validate and describe (info), synthesise (synth)"},
     {"splat", cmd_splat, "3D Gaussian Splatting: train, render, evaluate, export to .splat"},
     {"metrics", cmd_metrics, "PSNR and SSIM of two images, as the 3DGS evaluation computes them"},

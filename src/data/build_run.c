@@ -115,23 +115,16 @@ static int write_clip(const data_run *run, const int *frames, const frame_cache 
     info.height = cams[frames[0]].height;
     gv_clip clip;
     if (gv_clip_alloc(&clip, &info) != 0) return -1;
-    size_t bytes = (size_t)info.width * info.height * 3;
-    int rc = 0;
-    for (int i = 0; i < GV_CLIP_FRAMES && rc == 0; i++) {
-        int f = frames[i];
-        const gv_image *input = (i == 0 || i == GV_CLIP_FRAMES - 1) ? &cache->truth[f] : &cache->renders[f];
-        if (input->width != info.width || input->height != info.height ||
-            cache->truth[f].width != info.width || cache->truth[f].height != info.height) {
-            rc = gv_fail("%s: frame %d is %dx%d, the clip's first frame %dx%d: a clip needs one size",
-                         run->id.scene, f, cache->truth[f].width, cache->truth[f].height, info.width, info.height);
-            break;
-        }
-        clip.info.frames[i] = f;
-        snprintf(clip.info.frame_names[i], sizeof clip.info.frame_names[i], "%s", cams[f].name);
-        memcpy(gv_clip_frame(clip.inputs, &info, i), input->pixels, bytes);
-        memcpy(gv_clip_frame(clip.targets, &info, i), cache->truth[f].pixels, bytes);
-        gv_clip_set_camera(&clip, i, &cams[f]);
+    const gv_image *inputs[GV_CLIP_FRAMES], *targets[GV_CLIP_FRAMES];
+    const gv_camera *clip_cams[GV_CLIP_FRAMES];
+    for (int i = 0; i < GV_CLIP_FRAMES; i++) {
+        int f = frames[i], anchor = i == 0 || i == GV_CLIP_FRAMES - 1;
+        inputs[i] = anchor ? &cache->truth[f] : &cache->renders[f];
+        targets[i] = &cache->truth[f];
+        clip_cams[i] = &cams[f];
     }
+    int rc = gv_clip_fill(&clip, frames, inputs, targets, clip_cams);
+    if (rc) gv_fail_context("%s", run->id.scene);
     if (rc == 0) rc = gv_clip_write(path, &clip);
     gv_clip_free(&clip);
     return rc;

@@ -80,6 +80,12 @@ static int grow_all_rows(gv_splat_trainer *t)
 static int check_inputs(const gv_splat_train_options *opt, int n_views,
                         const gv_camera *cameras, const gv_image *images, double extent)
 {
+    if (opt->initial && (opt->initial->n < 1 || opt->initial->sh_degree != opt->sh_degree))
+        return gv_fail("train: the initial model has %d Gaussians of SH degree %d; need at least 1 of degree %d",
+                       opt->initial->n, opt->initial->sh_degree, opt->sh_degree);
+    for (int i = 0; opt->view_weights && i < n_views; i++)
+        if (!(opt->view_weights[i] >= 0) || !isfinite(opt->view_weights[i]))
+            return gv_fail("train: view %d has weight %g; weights must be finite and >= 0", i, opt->view_weights[i]);
     if (opt->iterations < 1) return gv_fail("train: %d iterations; need at least 1", opt->iterations);
     if (opt->sh_degree < 0 || opt->sh_degree > 3)
         return gv_fail("train: SH degree %d is not in 0..3", opt->sh_degree);
@@ -99,11 +105,25 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
     return 0;
 }
 
-/* The initial Gaussians: the points, or random points in a cube of half-size 3 x extent
+/* dst = a copy of src's rows (refinement starts from a trained model). */
+static int copy_model(gv_gaussians *dst, const gv_gaussians *src)
+{
+    if (gv_gaussians_alloc(dst, src->n, src->sh_degree) != 0) return -1;
+    size_t n = (size_t)src->n;
+    memcpy(dst->means, src->means, 3 * n * sizeof(float));
+    memcpy(dst->sh, src->sh, (size_t)3 * gv_sh_coefficient_count(src->sh_degree) * n * sizeof(float));
+    memcpy(dst->opacities, src->opacities, n * sizeof(float));
+    memcpy(dst->scales, src->scales, 3 * n * sizeof(float));
+    memcpy(dst->rotations, src->rotations, 4 * n * sizeof(float));
+    return 0;
+}
+
+/* The initial Gaussians: a given model (refinement), the points, or random points in a cube of half-size 3 x extent
  * around the mean camera centre (gsplat's init_extent; docs/SPLAT_TRAINING.md). */
 static int initial_gaussians(gv_splat_trainer *t, int n_points, const float *xyz,
                              const uint8_t *rgb)
 {
+    if (t->opt.initial) return copy_model(&t->params, t->opt.initial);
     if (n_points > 0)
         return gv_splat_init_from_points(&t->params, n_points, xyz, rgb, t->opt.sh_degree);
     double center[3] = {0, 0, 0}, c[3];
@@ -146,7 +166,7 @@ int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt
     t->d_render = malloc((size_t)pixels * 3 * sizeof(float));
     if (!t->render || !t->target || !t->d_render) goto out_of_memory;
     if (initial_gaussians(t, n_points, xyz, rgb) != 0) goto fail;
-    double o = opt->initial_opacity > 0 ? opt->initial_opacity
+    double o = opt->initial ? 0 : opt->initial_opacity > 0 ? opt->initial_opacity
                : opt->densify_mode == GV_DENSIFY_MCMC ? MCMC_INITIAL_OPACITY : 0;
     if (o > 0 && o < 1)
         for (int i = 0; i < t->params.n; i++) t->params.opacities[i] = (float)log(o / (1.0 - o));
@@ -158,6 +178,7 @@ int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt
     t->densify_grad = calloc((size_t)t->params.capacity, sizeof(float));
     if (!t->densify_grad || grow_all_rows(t) != 0) goto out_of_memory;
     t->order_pos = n_views; /* empty: the first step shuffles */
+    if (opt->initial) t->active_degree = opt->sh_degree; /* a trained model has every degree */
     gv_rng_init(&t->view_rng, stream_seed(opt->seed, STREAM_VIEWS));
     gv_rng_init(&t->bg_rng, stream_seed(opt->seed, STREAM_BACKGROUND));
     gv_rng_init(&t->split_rng, stream_seed(opt->seed, STREAM_SPLIT));
@@ -326,6 +347,11 @@ int gv_splat_trainer_step(gv_splat_trainer *t)
     if (gv_splat_loss(&t->loss_work, t->render, t->target, view->width, view->height,
                       t->opt.lambda_dssim, t->d_render, &loss) != 0)
         return gv_fail_context("train: iteration %d (view %s)", it, t->cameras[v].name);
+    if (t->opt.view_weights) { /* a down-weighted view: its loss and gradient scaled */
+        float w = t->opt.view_weights[v];
+        for (long i = 0; i < (long)view->width * view->height * 3; i++) t->d_render[i] *= w;
+        loss.loss *= w;
+    }
     t->loss = loss.loss;
     t->ema_loss = it == 1 ? t->loss : 0.4 * t->loss + 0.6 * t->ema_loss;
     double t2 = gv_now();

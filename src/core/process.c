@@ -1,0 +1,49 @@
+/* Running the external programs gaussvid uses (COLMAP for `scene colmap`, ffmpeg for the
+ * video of `reconstruct`): finding them on the PATH and running one with its output in a log. */
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "gaussvid/core.h"
+
+int gv_find_program(const char *name, char *out, size_t size)
+{
+    if (strchr(name, '/')) {
+        snprintf(out, size, "%s", name);
+        return access(out, X_OK) ? -1 : 0;
+    }
+    const char *path = getenv("PATH");
+    char dirs[8192];
+    snprintf(dirs, sizeof dirs, "%s", path ? path : "/usr/bin:/bin");
+    for (char *save = NULL, *d = strtok_r(dirs, ":", &save); d; d = strtok_r(NULL, ":", &save)) {
+        snprintf(out, size, "%s/%s", d, name);
+        if (!access(out, X_OK)) return 0;
+    }
+    return -1;
+}
+
+int gv_run_logged(const char *const argv[], const char *log)
+{
+    int lf = open(log, O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (lf < 0) return gv_fail("%s: cannot open: %s", log, strerror(errno));
+    fflush(stdout), fflush(stderr);
+    pid_t pid = fork();
+    if (pid == 0) {
+        int null = open("/dev/null", O_RDONLY);
+        if (null >= 0) dup2(null, 0);
+        dup2(lf, 1), dup2(lf, 2);
+        execv(argv[0], (char *const *)argv);
+        _exit(127);
+    }
+    close(lf);
+    if (pid < 0) return gv_fail("%s: cannot start: %s", argv[0], strerror(errno));
+    int status;
+    while (waitpid(pid, &status, 0) < 0)
+        if (errno != EINTR) return gv_fail("%s: lost: %s", argv[0], strerror(errno));
+    if (WIFEXITED(status)) return WEXITSTATUS(status);
+    return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+}

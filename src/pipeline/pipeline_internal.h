@@ -1,0 +1,91 @@
+/* What the stages of `reconstruct` share (pipeline.h): the plan of one interval's run and the
+ * metrics document. Stages talk to each other through files only (the PLY models and the
+ * PNG frames in DIR/nN), so any of them can be resumed from what the earlier ones wrote. */
+#ifndef GAUSSVID_PIPELINE_INTERNAL_H
+#define GAUSSVID_PIPELINE_INTERNAL_H
+
+#include <cjson/cJSON.h>
+
+#include "gaussvid/dataset.h"
+#include "gaussvid/gaussians.h"
+#include "gaussvid/pipeline.h"
+#include "gaussvid/scene.h"
+
+/* One evaluated frame: a held-out view of the scene or a camera of the smooth path. */
+typedef struct {
+    int index;                   /* scene frame (held-out) or path frame 4k + j (smooth path) */
+    gv_camera camera;
+    int truth;                   /* scene frame with ground truth, or -1 */
+    int clip, slot;              /* the clip that restores it and its place there (1..3) */
+} pipeline_frame;
+
+typedef struct {
+    const gv_reconstruct_options *opt;
+    const gv_scene *scene;
+    char scene_name[GV_SCENE_NAME_MAX];
+    int n;                       /* the interval */
+    int smooth_path;             /* 1: every view trains (n = 1), the frames are a path */
+    char dir[4096];              /* DIR/nN */
+    int n_train, *train;         /* training frames */
+    int n_held_out, *held_out;   /* every held-out frame (the tail after the last view too) */
+    int n_frames;
+    pipeline_frame *frames;      /* the evaluated frames, in path order */
+    int n_clips;
+    int (*clips)[GV_CLIP_FRAMES];/* indices into frames for slots 1..3; anchors: training-view
+                                    positions k (scene frame train[k]) as -1 - k */
+    char restorer[4096];         /* the checkpoint restore uses */
+    cJSON *doc;                  /* the whole metrics.json */
+    cJSON *run;                  /* this interval's object in doc's "runs" */
+    char summary[512];           /* the stage's one-line summary, set by the stage */
+} pipeline_run;
+
+/* plan.c: whether interval n can be planned on the scene (n = 1 or n >= 4, two training views). */
+int pipeline_check_interval(const gv_scene *scene, int n);
+/* The training views, the evaluated frames and the clips of interval n. */
+int pipeline_plan(pipeline_run *r, const gv_scene *scene, int n);
+void pipeline_plan_free(pipeline_run *r);
+/* DIR/nN/<what>/frame_%05d.png of an evaluated frame (what: render, restored, refined). */
+int pipeline_frame_path(const pipeline_run *r, const char *what, int frame, char *out, size_t size);
+/* The same path relative to DIR (metrics.json's "images"). */
+void pipeline_frame_relpath(const pipeline_run *r, const char *what, int frame, char *out, size_t size);
+/* A file of the run's folder: DIR/nN/name. */
+int pipeline_file(const pipeline_run *r, const char *name, char *out, size_t size);
+
+/* splat_stages.c */
+int pipeline_train(pipeline_run *r);
+int pipeline_refine(pipeline_run *r);
+/* Renders a model from every evaluated frame's camera into DIR/nN/frames/<what>/. */
+int pipeline_render_model(pipeline_run *r, const gv_gaussians *g, const char *what);
+int pipeline_render(pipeline_run *r);
+/* restore_stages.c */
+int pipeline_adapt(pipeline_run *r);
+int pipeline_restore(pipeline_run *r);
+/* evaluate.c */
+int pipeline_evaluate(pipeline_run *r);
+/* video.c */
+int pipeline_video(pipeline_run *r);
+/* The ffmpeg program to use: o->ffmpeg, else "ffmpeg" found on the PATH; fails with one line
+ * saying how to install it. */
+int pipeline_find_ffmpeg(const gv_reconstruct_options *o, char *out, size_t size);
+
+/* metrics_doc.c: DIR/metrics.json. */
+int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, cJSON **doc);
+/* This interval's run object: the existing one when its inputs are this run's (else a line
+ * saying what differs), or a new one listing the plan's frames. */
+int pipeline_doc_run(pipeline_run *r);
+int pipeline_doc_write(const pipeline_run *r);
+/* 1 when the run's "stages" lists the stage as finished from the same inputs (the keys of
+ * the run's "inputs" listed, space-separated); else 0, and why says which input changed when
+ * the stage was finished from other ones. */
+int pipeline_stage_done(const pipeline_run *r, const char *name, const char *keys, char *why, size_t size);
+/* Records a finished stage with its wall and CPU seconds, r->summary and its inputs (keys),
+ * and writes the file. */
+int pipeline_stage_record(pipeline_run *r, const char *name, const char *keys, double seconds, double cpu_seconds);
+/* Drops the records of the stage and of every stage after it. */
+void pipeline_stage_forget(pipeline_run *r, const char *name);
+/* The restorer object of metrics.json for a checkpoint (adapt: the scene checkpoint of --adapt). */
+cJSON *pipeline_restorer_json(const char *ckpt, int adapt);
+/* doc-building helpers */
+cJSON *pipeline_metric_json(double psnr, double ssim, double lpips, int has_lpips);
+
+#endif

@@ -1,0 +1,115 @@
+/* The plan of one interval (pipeline.h): training views, the evaluated frames and the clips
+ * that restore them. Held-out frames: each gap between consecutive training views s and
+ * s + n holds n - 1 of them, restored by ceil((n - 1) / 3) clips with the anchors s and s + n
+ * (the layout of `dataset build`, docs/FORMATS-DATASET.md); the last clip of a gap takes the
+ * gap's last three frames and restores those the earlier clips did not. Smooth path (n = 1):
+ * one clip per pair of consecutive views, its three frames at a quarter, half and three
+ * quarters of the way. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "gaussvid/core.h"
+#include "gaussvid/splat_train.h"
+#include "pipeline/pipeline_internal.h"
+
+#define SLOTS 3 /* restored frames per clip */
+
+void pipeline_plan_free(pipeline_run *r)
+{
+    free(r->train), free(r->held_out), free(r->frames), free(r->clips);
+    r->train = r->held_out = NULL, r->frames = NULL, r->clips = NULL;
+}
+
+static int plan_held_out(pipeline_run *r)
+{
+    const gv_scene *s = r->scene;
+    int gaps = r->n_train - 1, per_gap = (r->n - 1 + SLOTS - 1) / SLOTS;
+    r->frames = calloc((size_t)gaps * (r->n - 1) + 1, sizeof *r->frames);
+    r->clips = calloc((size_t)gaps * per_gap + 1, sizeof *r->clips);
+    if (!r->frames || !r->clips) return gv_fail("out of memory for the plan of n = %d", r->n);
+    for (int k = 0; k < gaps; k++) {
+        int first = r->n_frames, start = r->train[k] + 1, m = r->n - 1;
+        for (int i = 0; i < m; i++) {
+            pipeline_frame *f = &r->frames[r->n_frames++];
+            f->index = f->truth = start + i;
+            f->camera = s->cameras[start + i];
+        }
+        for (int g = 0; g < per_gap; g++) {
+            int from = g * SLOTS < m - SLOTS ? g * SLOTS : m - SLOTS; /* the last clip: the last 3 */
+            int *c = r->clips[r->n_clips];
+            c[0] = -1 - k, c[GV_CLIP_FRAMES - 1] = -2 - k;
+            for (int j = 0; j < SLOTS; j++) {
+                pipeline_frame *f = &r->frames[first + from + j];
+                c[1 + j] = first + from + j;
+                if (from + j >= g * SLOTS) f->clip = r->n_clips, f->slot = 1 + j; /* not yet restored */
+            }
+            r->n_clips++;
+        }
+    }
+    return 0;
+}
+
+static int plan_smooth_path(pipeline_run *r)
+{
+    int gaps = r->n_train - 1;
+    r->frames = calloc((size_t)gaps * SLOTS, sizeof *r->frames);
+    r->clips = calloc((size_t)gaps, sizeof *r->clips);
+    if (!r->frames || !r->clips) return gv_fail("out of memory for the plan of a %d-view path", r->n_train);
+    for (int k = 0; k < gaps; k++) {
+        const gv_camera *a = &r->scene->cameras[r->train[k]], *b = &r->scene->cameras[r->train[k + 1]];
+        int *c = r->clips[k];
+        c[0] = -1 - k, c[GV_CLIP_FRAMES - 1] = -2 - k;
+        for (int j = 1; j <= SLOTS; j++) {
+            pipeline_frame *f = &r->frames[r->n_frames];
+            f->index = (SLOTS + 1) * k + j;
+            f->truth = -1;
+            gv_camera_interpolate(a, b, (double)j / (SLOTS + 1), &f->camera);
+            f->clip = k, f->slot = j;
+            c[j] = r->n_frames++;
+        }
+    }
+    r->n_clips = gaps;
+    return 0;
+}
+
+int pipeline_check_interval(const gv_scene *scene, int n)
+{
+    if (n != 1 && n < SLOTS + 1)
+        return gv_fail("--interval %d: a clip restores %d held-out frames between two training views, so n must "
+                       "be 1 (every view trains; a smooth path between them is restored) or at least %d",
+                       n, SLOTS, SLOTS + 1);
+    if (n >= scene->n_frames)
+        return gv_fail("--interval %d: %s has %d frames, so fewer than two training views (frames 0, n, 2n, ...)", n,
+                       scene->dir, scene->n_frames);
+    return 0;
+}
+
+int pipeline_plan(pipeline_run *r, const gv_scene *scene, int n)
+{
+    int total = scene->n_frames;
+    r->scene = scene, r->n = n, r->smooth_path = n == 1;
+    r->n_frames = r->n_clips = 0;
+    if (pipeline_check_interval(scene, n)) return -1;
+    r->train = malloc((size_t)total * sizeof *r->train);
+    r->held_out = malloc((size_t)total * sizeof *r->held_out);
+    if (!r->train || !r->held_out) return gv_fail("out of memory for %d frames", total);
+    if (gv_scene_split(total, n, r->train, &r->n_train, r->held_out, &r->n_held_out))
+        return gv_fail_context("%s: --interval %d", scene->dir, n);
+    return r->smooth_path ? plan_smooth_path(r) : plan_held_out(r);
+}
+
+int pipeline_file(const pipeline_run *r, const char *name, char *out, size_t size)
+{
+    return gv_path_join(out, size, r->dir, name);
+}
+
+int pipeline_frame_path(const pipeline_run *r, const char *what, int frame, char *out, size_t size)
+{
+    int len = snprintf(out, size, "%s/frames/%s/frame_%05d.png", r->dir, what, frame);
+    return len < 0 || (size_t)len >= size ? gv_fail("%s: path too long", r->dir) : 0;
+}
+
+void pipeline_frame_relpath(const pipeline_run *r, const char *what, int frame, char *out, size_t size)
+{
+    snprintf(out, size, "n%d/frames/%s/frame_%05d.png", r->n, what, frame);
+}

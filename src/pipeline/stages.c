@@ -1,0 +1,176 @@
+/* The stages of `reconstruct` as a table (pipeline.h) and the loop over intervals and stages:
+ * a stage is skipped when metrics.json lists it as finished and its files exist; once one
+ * stage runs, every later one runs again (its inputs may have changed). */
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "gaussvid/checkpoint.h"
+#include "gaussvid/core.h"
+#include "gaussvid/model_config.h"
+#include "pipeline/pipeline_internal.h"
+
+typedef struct {
+    const char *name;
+    int (*run)(pipeline_run *r);
+    int adapt_only;                 /* runs only with --adapt */
+    const char *inputs;             /* the options it depends on (keys of metrics.json's "inputs") */
+    const char *outputs[4];         /* in DIR/nN; "frames/X" means every evaluated frame's PNG */
+} stage;
+
+static const stage STAGES[] = {
+    {"train", pipeline_train, 0, "iters seed downscale", {"sparse.ply", "sparse.splat"}},
+    {"render", pipeline_render, 0, "", {"frames/render"}},
+    {"adapt", pipeline_adapt, 1, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}},
+    {"restore", pipeline_restore, 0, "checkpoint adapt seed", {"frames/restored"}},
+    {"refine", pipeline_refine, 0, "refine_iters refine_weight", {"refined.ply", "refined.splat", "frames/refined"}},
+    {"evaluate", pipeline_evaluate, 0, "lpips", {NULL}},
+    {"video", pipeline_video, 0, "fps", {"flythrough.mp4"}},
+};
+#define N_STAGES ((int)(sizeof STAGES / sizeof STAGES[0]))
+
+const char *const *gv_reconstruct_stages(int *n)
+{
+    static const char *names[N_STAGES];
+    for (int i = 0; i < N_STAGES; i++) names[i] = STAGES[i].name;
+    *n = N_STAGES;
+    return names;
+}
+
+void gv_reconstruct_defaults(gv_reconstruct_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->downscale = 1;
+    o->iters = 8000;
+    o->refine_iters = 1000;
+    o->refine_weight = 0.3;
+    o->fps = 8;
+    gv_adapt_defaults(&o->adapt_options);
+}
+
+static double cpu_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+static int outputs_exist(const pipeline_run *r, const stage *s)
+{
+    for (int k = 0; k < 4 && s->outputs[k]; k++) {
+        char path[4200];
+        const char *o = s->outputs[k];
+        if (!strncmp(o, "frames/", 7)) {
+            for (int i = 0; i < r->n_frames; i++)
+                if (pipeline_frame_path(r, o + 7, r->frames[i].index, path, sizeof path) || !gv_file_exists(path))
+                    return 0;
+        } else if (pipeline_file(r, o, path, sizeof path) || !gv_file_exists(path)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static int stage_index(const char *name)
+{
+    for (int i = 0; i < N_STAGES; i++)
+        if (!strcmp(STAGES[i].name, name)) return i;
+    return -1;
+}
+
+/* The checks that need no training: flags, the checkpoint, the images' size against the
+ * restorer's grid, ffmpeg when the video stage will run. */
+static int check_options(const gv_reconstruct_options *o, const gv_scene *scene, int last)
+{
+    if (o->n_intervals < 1) return gv_fail("no --interval given");
+    if (o->iters < 1 || o->refine_iters < 1) return gv_fail("--iters and --refine-iters must be at least 1");
+    if (!(o->refine_weight > 0) || o->refine_weight > 1)
+        return gv_fail("--refine-weight %g: expected a weight in (0, 1]", o->refine_weight);
+    if (!(o->fps > 0) || o->fps > 240) return gv_fail("--fps %g: expected 0 < fps <= 240", o->fps);
+    for (int k = 0; k < o->n_intervals; k++)
+        if (pipeline_check_interval(scene, o->intervals[k])) return -1;
+    if (!gv_file_exists(o->ckpt)) return gv_fail("%s: no such checkpoint", o->ckpt);
+    gv_model_config cfg;
+    gv_train_state state;
+    gv_model_cost cost;
+    int w = scene->cameras[0].width, h = scene->cameras[0].height;
+    for (int i = 1; i < scene->n_frames; i++)
+        if (scene->cameras[i].width != w || scene->cameras[i].height != h)
+            return gv_fail("%s: frame %d is %dx%d, frame 0 %dx%d: the restorer's clips need one size", scene->dir, i,
+                           scene->cameras[i].width, scene->cameras[i].height, w, h);
+    if (gv_checkpoint_read_info(o->ckpt, &cfg, &state)) return -1;
+    if (gv_model_cost_estimate(&cfg, 5, h, w, &cost))
+        return gv_fail("%s: %dx%d images do not fit the restorer %s (%s): crop or scale them to multiples of %d "
+                       "(scene info --downscale may help)", scene->dir, w, h, o->ckpt, cfg.name,
+                       cfg.vae.spatial_factor * cfg.dit.patch_size[1]);
+    char ffmpeg[4200];
+    if (last >= stage_index("video") && pipeline_find_ffmpeg(o, ffmpeg, sizeof ffmpeg)) return -1;
+    return 0;
+}
+
+/* Every stage of one interval up to `last`. */
+static int run_interval(pipeline_run *r, int last)
+{
+    int redo = 0;
+    for (int i = 0; i <= last; i++) {
+        const stage *s = &STAGES[i];
+        if (s->adapt_only && !r->opt->adapt) continue;
+        char why[256];
+        if (!redo && pipeline_stage_done(r, s->name, s->inputs, why, sizeof why)) {
+            if (outputs_exist(r, s)) {
+                gv_info("n=%d %s: done before, skipped", r->n, s->name);
+                continue;
+            }
+            gv_info("n=%d %s: some of its files are missing: done again", r->n, s->name);
+        } else if (!redo && why[0]) {
+            gv_info("n=%d %s: made before with %s: done again", r->n, s->name, why);
+        }
+        redo = 1;
+        pipeline_stage_forget(r, s->name);
+        r->summary[0] = 0;
+        double wall = gv_now(), cpu = cpu_seconds();
+        if (s->run(r)) return gv_fail_context("n=%d %s", r->n, s->name);
+        wall = gv_now() - wall, cpu = cpu_seconds() - cpu;
+        if (pipeline_stage_record(r, s->name, s->inputs, wall, cpu)) return -1;
+        if (r->opt->on_stage) r->opt->on_stage(r->opt->on_stage_ctx, r->n, s->name, r->summary, wall, cpu);
+    }
+    return 0;
+}
+
+int gv_reconstruct(const gv_reconstruct_options *o)
+{
+    int last = N_STAGES - 1;
+    if (o->stop_after && (last = stage_index(o->stop_after)) < 0)
+        return gv_fail("--stop-after %s: not a stage (train, render, adapt, restore, refine, evaluate, video)",
+                       o->stop_after);
+    if (o->stop_after && !strcmp(o->stop_after, "adapt") && !o->adapt)
+        return gv_fail("--stop-after adapt: the adapt stage runs only with --adapt");
+    gv_scene scene;
+    gv_scene_options so = {.downscale = o->downscale};
+    if (gv_scene_load(o->scene_dir, &so, &scene)) return -1;
+    cJSON *doc = NULL;
+    int rc = check_options(o, &scene, last);
+    if (rc == 0) rc = gv_mkdirs(o->out_dir);
+    if (rc == 0) gv_atomic_sweep(o->out_dir, NULL);
+    if (rc == 0) rc = pipeline_doc_open(o, &scene, &doc);
+    for (int k = 0; k < o->n_intervals && rc == 0; k++) {
+        pipeline_run r;
+        memset(&r, 0, sizeof r);
+        r.opt = o, r.doc = doc;
+        char name[32];
+        snprintf(name, sizeof name, "n%d", o->intervals[k]);
+        rc = gv_scene_name_of(o->scene_dir, r.scene_name, sizeof r.scene_name) ||
+             gv_path_join(r.dir, sizeof r.dir, o->out_dir, name) || pipeline_plan(&r, &scene, o->intervals[k]) ||
+             gv_mkdirs(r.dir) || pipeline_doc_run(&r) || pipeline_doc_write(&r);
+        if (rc == 0) {
+            gv_atomic_sweep(r.dir, NULL);
+            gv_info("n=%d: %d training views, %d %s frames in %d clips", r.n, r.n_train, r.n_frames,
+                    r.smooth_path ? "path" : "held-out", r.n_clips);
+            rc = run_interval(&r, last);
+        }
+        pipeline_plan_free(&r);
+    }
+    cJSON_Delete(doc);
+    gv_scene_free(&scene);
+    return rc ? -1 : 0;
+}

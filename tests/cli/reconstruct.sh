@@ -1,0 +1,209 @@
+#!/bin/bash
+# gaussvid reconstruct on a tiny synthesised scene (25 frames of 64x48, n = 6: 5 training views,
+# 20 held-out frames in 8 clips) with a tiny restorer made here: every stage's files exist and
+# read; metrics.json's numbers equal an independent recomputation (gaussvid metrics on the PNGs
+# it names; the means of its frames); --stop-after stops; a rerun skips finished stages, redoes
+# from a stage whose files are gone and refuses other inputs; the refinement's feedback path
+# (restored frames replaced by the ground truth beat restored frames replaced by the renders);
+# the smooth path of n = 1; the adapt stage; bad input gives one line and a non-zero exit.
+# Usage: bash reconstruct.sh /path/to/gaussvid   ($GV_TMP scratch)
+source "$(dirname "$0")/lib/harness.sh"
+cli_setup reconstruct "$1"
+
+CONFIGS="$(cd "$(dirname "$0")/../../configs" && pwd)"
+cd "$T" || exit 1
+# A 1-frame-per-latent tiny network (as adapt.sh): --adapt needs it.
+sed -e 's/"temperal_downsample": \[false, true, true\]/"temperal_downsample": [false, false, false]/' \
+    -e 's/"temporal_factor": 4/"temporal_factor": 1/' -e 's/"name": "tiny"/"name": "tiny1"/' "$CONFIGS/tiny.json" >tiny1.json
+expect 0 "synth" -- "$G" scene synth --seed 3 --frames 25 --size 64x48 --samples 1 --out S --quiet
+expect 0 "dataset" -- "$G" dataset build --scenes S --intervals 6 --iters 20 --clips-per-run 2 --seed 5 --out D \
+    --quiet --threads 1
+expect 0 "vae" -- "$G" vae train --config tiny1.json --scenes S --steps 2 --crop 32x32 --stats-clips 2 \
+    --out vae.safetensors --quiet
+expect 0 "base" -- "$G" pretrain --clips D --config tiny1.json --vae vae.safetensors --steps 2 --batch 2 \
+    --out base.safetensors --quiet
+
+HAVE_FFMPEG=0
+command -v ffmpeg >/dev/null && HAVE_FFMPEG=1
+[ $HAVE_FFMPEG = 1 ] || echo "reconstruct.sh: ffmpeg is not installed (scripts/setup.sh): the video stage is not tested"
+LAST=video
+[ $HAVE_FFMPEG = 1 ] || LAST=evaluate
+RC=(--scene S --interval 6 --ckpt base.safetensors --iters 60 --refine-iters 40 --threads 2)
+
+# Help and usage errors.
+expect 0 "help" -- "$G" reconstruct --help
+has "usage: gaussvid reconstruct"
+has "--stop-after"
+expect 0 "listed" -- "$G" help
+has "reconstruct"
+expect 2 "no scene" -- "$G" reconstruct --interval 6 --out X
+expect 2 "bad interval" -- "$G" reconstruct --scene S --interval 6,x --out X
+one_line "--interval 6,x"
+expect 2 "interval 0" -- "$G" reconstruct --scene S --interval 0 --out X
+one_line "--interval 0"
+expect 1 "interval 3" -- "$G" reconstruct "${RC[@]}" --interval 3 --out X
+one_line "n must be 1"
+expect 1 "missing scene" -- "$G" reconstruct "${RC[@]}" --scene nowhere --out X
+one_line "nowhere"
+expect 1 "missing checkpoint" -- "$G" reconstruct "${RC[@]}" --ckpt none.safetensors --out X
+one_line "none.safetensors: no such checkpoint"
+expect 1 "not a checkpoint" -- "$G" reconstruct "${RC[@]}" --ckpt tiny1.json --out X
+one_line "tiny1.json"
+expect 1 "unknown stage" -- "$G" reconstruct "${RC[@]}" --stop-after paint --out X
+one_line "--stop-after paint: not a stage"
+expect 1 "no ffmpeg" -- "$G" reconstruct "${RC[@]}" --ffmpeg ./no-ffmpeg --out X
+one_line "no-ffmpeg"
+expect 1 "weight" -- "$G" reconstruct "${RC[@]}" --refine-weight 2 --out X
+one_line "--refine-weight 2"
+check "nothing written on bad input" test ! -e X
+
+# Stage by stage: --stop-after stops, the next run continues.
+stages() { python3 -c "import json,sys; print(' '.join(s['name'] for s in json.load(open('$1'))['runs'][0]['stages']))"; }
+expect 0 "stop after train" -- "$G" reconstruct "${RC[@]}" --out R --stop-after train
+exists R/n6/sparse.ply
+exists R/n6/sparse.splat
+check "no renders yet" test ! -e R/n6/frames/render
+check "train recorded" test "$(stages R/metrics.json)" = "train"
+has "n=6 train:"
+cp R/n6/sparse.ply sparse_first.ply
+expect 0 "stop after render" -- "$G" reconstruct "${RC[@]}" --out R --stop-after render
+check "train skipped" grep -q "n=6 train: done before, skipped" "$T/err"
+check "the sparse model kept" cmp -s R/n6/sparse.ply sparse_first.ply
+check "train, render" test "$(stages R/metrics.json)" = "train render"
+check "20 renders" test "$(ls R/n6/frames/render | wc -l)" -eq 20
+done_stages="train render"
+i=2
+for st in restore refine evaluate video; do
+    [ $st = video ] && [ $HAVE_FFMPEG = 0 ] && break
+    expect 0 "stop after $st" -- "$G" reconstruct "${RC[@]}" --out R --stop-after $st
+    check "$i stages skipped before $st" test "$(grep -c 'done before, skipped' "$T/err")" -eq $i
+    done_stages="$done_stages $st"
+    check "stages recorded up to $st" test "$(stages R/metrics.json)" = "$done_stages"
+    cat "$T/out" >>all_out
+    i=$((i + 1))
+done
+cp all_out "$T/out"
+has "n=6 restore: 8 clips restored"
+has "n=6 evaluate: PSNR sparse"
+for d in render restored refined; do
+    check "20 $d frames" test "$(ls R/n6/frames/$d | wc -l)" -eq 20
+done
+check "the renders read" "$G" metrics R/n6/frames/render/frame_00001.png R/n6/frames/restored/frame_00001.png
+check "the refined model reads" "$G" splat export R/n6/refined.ply --out refined_copy.splat
+check "refined.splat is that model" cmp -s refined_copy.splat R/n6/refined.splat
+if [ $HAVE_FFMPEG = 1 ]; then
+    exists R/n6/flythrough.mp4
+    check "the video is 20 frames of 192x48" test "$(ffprobe -v error -count_frames -select_streams v:0 \
+        -show_entries stream=nb_read_frames,width,height -of csv=p=0 R/n6/flythrough.mp4)" = "192,48,20"
+fi
+
+# metrics.json against an independent recomputation.
+cat >check_metrics.py <<'PY'
+import json, subprocess, sys
+gv, root = sys.argv[1], sys.argv[2]
+doc = json.load(open(root + "/metrics.json"))
+assert doc["format"] == "gaussvid-reconstruct-1" and doc["scene"] == "S", "header"
+assert (doc["width"], doc["height"]) == (64, 48), "size"
+assert doc["restorer"]["kind"] == "cross-scene" and doc["restorer"]["gate"] is None, "restorer"
+run = doc["runs"][0]
+assert run["interval"] == 6 and run["path"] == "held-out" and run["train_frames"] == [0, 6, 12, 18, 24], "plan"
+frames = [f["frame"] for f in run["frames"]]
+assert frames == [i for i in range(1, 24) if i % 6], "frames %s" % frames
+assert run["gaussians"]["sparse"] > 0 and run["gaussians"]["refined"] == run["gaussians"]["sparse"], "counts"
+sums = {"sparse": [0, 0], "restored": [0, 0], "refined": [0, 0]}
+for f in run["frames"]:
+    truth = f["images"]["ground_truth"]
+    for kind, image in (("sparse", "render"), ("restored", "restored"), ("refined", "refined")):
+        out = subprocess.run([gv, "metrics", root + "/" + f["images"][image], truth, "--json"],
+                             capture_output=True, text=True, check=True).stdout
+        m = json.loads(out)
+        assert abs(m["psnr"] - f[kind]["psnr"]) < 1e-9, (f["frame"], kind, m, f[kind])
+        assert abs(m["ssim"] - f[kind]["ssim"]) < 1e-9, (f["frame"], kind, m, f[kind])
+        assert f[kind]["lpips"] is None
+        sums[kind][0] += m["psnr"]; sums[kind][1] += m["ssim"]
+for kind, (p, s) in sums.items():
+    mean = run["means"][kind]
+    assert mean["frames"] == 20 and abs(mean["psnr"] - p / 20) < 1e-9 and abs(mean["ssim"] - s / 20) < 1e-9, kind
+# every held-out frame is between two training views here: the two means agree
+assert abs(run["all_held_out"]["sparse"]["psnr"] - run["means"]["sparse"]["psnr"]) < 1e-9, "all held-out"
+names = [s["name"] for s in run["stages"]]
+assert names[:5] == ["train", "render", "restore", "refine", "evaluate"], names
+assert all(s["seconds"] >= 0 and s["cpu_seconds"] >= 0 and s["summary"] for s in run["stages"]), "stage records"
+PY
+check "metrics.json equals its recomputation" python3 check_metrics.py "$G" R
+
+# Resume: everything finished is skipped; other inputs are refused; lost files redo their stage.
+cp R/metrics.json metrics_first.json
+expect 0 "rerun" -- "$G" reconstruct "${RC[@]}" --out R --stop-after $LAST
+check "every stage skipped" test "$(grep -c 'done before, skipped' "$T/err")" -eq $([ $HAVE_FFMPEG = 1 ] && echo 6 || echo 5)
+check "metrics.json unchanged" cmp -s R/metrics.json metrics_first.json
+# Other refinement options: the stages before the refinement are kept, it and the later ones redone.
+cp -r R R2
+expect 0 "other refinement" -- "$G" reconstruct "${RC[@]}" --refine-iters 41 --out R2 --stop-after $LAST
+check "train, render, restore kept" test "$(grep -c 'done before, skipped' "$T/err")" -eq 3
+check "the refinement redone" grep -q "n=6 refine: made before with refine_iters 40, now 41: done again" "$T/err"
+check "refine recorded with its inputs" python3 -c "
+import json; r = json.load(open('R2/metrics.json'))['runs'][0]
+s = {s['name']: s for s in r['stages']}
+assert s['refine']['inputs'] == {'refine_iters': 41, 'refine_weight': 0.3}, s['refine']
+assert s['train']['inputs'] == {'iters': 60, 'seed': 0, 'downscale': 1}, s['train']
+assert r['inputs']['refine_iters'] == 41"
+rm R/n6/frames/restored/frame_00013.png
+cp R/n6/refined.ply refined_first.ply
+expect 0 "a lost frame" -- "$G" reconstruct "${RC[@]}" --out R --stop-after $LAST
+check "train and render skipped" test "$(grep -c 'done before, skipped' "$T/err")" -eq 2
+has "n=6 restore:"
+has "n=6 refine:"
+exists R/n6/frames/restored/frame_00013.png
+check "the same inputs give the same refined model" cmp -s R/n6/refined.ply refined_first.ply
+
+# The feedback path: refinement on restored frames that are the ground truth beats refinement
+# on restored frames that are the renders themselves (same iterations, weight 1).
+ORC=("${RC[@]}" --refine-iters 150 --refine-weight 1 --stop-after restore)
+expect 0 "oracle: up to restore" -- "$G" reconstruct "${ORC[@]}" --out O
+expect 0 "identity: up to restore" -- "$G" reconstruct "${ORC[@]}" --out I
+for f in O/n6/frames/restored/*.png; do cp "S/images/$(basename "$f")" "$f"; done
+cp I/n6/frames/render/*.png I/n6/frames/restored/
+expect 0 "oracle: refine" -- "$G" reconstruct "${ORC[@]}" --stop-after evaluate --out O
+expect 0 "identity: refine" -- "$G" reconstruct "${ORC[@]}" --stop-after evaluate --out I
+refined() { python3 -c "import json; print(json.load(open('$1'))['runs'][0]['means']['refined']['psnr'])"; }
+check "ground truth fed back beats the renders fed back by 1 dB" \
+    python3 -c "import sys; sys.exit(not $(refined O/metrics.json) > $(refined I/metrics.json) + 1)"
+
+# n = 1 on 6 frames: every view trains; 5 clips restore a path of 15 frames without ground truth.
+expect 0 "synth 6" -- "$G" scene synth --seed 4 --frames 6 --size 64x48 --samples 1 --out P --quiet
+expect 0 "smooth path" -- "$G" reconstruct "${RC[@]}" --scene P --interval 1 --out PR --stop-after $LAST
+check "15 path frames restored" test "$(ls PR/n1/frames/restored | wc -l)" -eq 15
+exists PR/n1/frames/refined/frame_00019.png
+check "path metrics" python3 -c "
+import json; r = json.load(open('PR/metrics.json'))['runs'][0]
+assert r['path'] == 'smooth' and r['means'] is None and r['all_held_out'] is None
+assert [f['frame'] for f in r['frames']] == [4 * k + j for k in range(5) for j in (1, 2, 3)]
+assert all(f['images']['ground_truth'] is None and f['sparse'] is None for f in r['frames'])"
+if [ $HAVE_FFMPEG = 1 ]; then
+    check "the path video is render | restored" test "$(ffprobe -v error -select_streams v:0 \
+        -show_entries stream=width,height -of csv=p=0 PR/n1/flythrough.mp4)" = "128,48"
+fi
+
+# --adapt: the scene checkpoint made in nN/ and restore uses it.
+expect 0 "adapt" -- "$G" reconstruct "${RC[@]}" --adapt --adapt-config tiny1.json --adapt-steps 2 --out A \
+    --stop-after restore
+has "n=6 adapt:"
+exists A/n6/restorer.safetensors
+check "restored with the scene checkpoint" python3 -c "
+import json; r = json.load(open('A/metrics.json'))['runs'][0]
+assert r['restorer']['kind'] == 'scene' and r['restorer']['gate'] in ('open', 'closed'), r['restorer']
+assert r['restorer']['checkpoint'] == 'A/n6/restorer.safetensors'
+assert [s['name'] for s in r['stages']] == ['train', 'render', 'adapt', 'restore']"
+# A scene checkpoint as --ckpt: its gate decides, metrics.json says which.
+expect 0 "a scene checkpoint" -- "$G" reconstruct "${RC[@]}" --ckpt A/n6/restorer.safetensors --out SC --stop-after restore
+check "the scene checkpoint's gate recorded" python3 -c "
+import json; d = json.load(open('SC/metrics.json')); r = d['runs'][0]['restorer']
+assert d['restorer']['kind'] == 'scene' and d['restorer']['gate'] == r['gate'] and r['gate'] in ('open', 'closed')"
+if grep -q "gate is closed" "$T/out"; then
+    check "a closed gate keeps the renders" cmp -s SC/n6/frames/render/frame_00001.png SC/n6/frames/restored/frame_00001.png
+fi
+expect 1 "stop after adapt without --adapt" -- "$G" reconstruct "${RC[@]}" --out A --stop-after adapt
+one_line "--stop-after adapt: the adapt stage runs only with --adapt"
+
+cli_finish
