@@ -488,14 +488,14 @@ static void test_manifest(const char *base)
     gv_dataset_default_params(&p);
     p.seed = 77, p.sampling = GV_SAMPLING_RANDOM, p.clips_per_run = 2;
     gv_manifest_init(&m, &p);
-    gv_manifest_run r1 = {"zeta", "train", 6, 2, 12.5}, r2 = {"alpha", "eval", 8, 1, 3.0};
+    gv_manifest_run r1 = {{"zeta", "train", 6}, 2, 12.5}, r2 = {{"alpha", "eval", 8}, 1, 3.0};
     gv_manifest_clip c1[2] = {clip_entry("zeta", 6, 1, "train", 6), clip_entry("zeta", 6, 0, "train", 0)};
     gv_manifest_clip c2[1] = {clip_entry("alpha", 8, 0, "eval", 8)};
     CHECK(gv_manifest_add_run(&m, &r1, c1, 2) == 0 && gv_manifest_add_run(&m, &r2, c2, 1) == 0);
     CHECK(m.n_runs == 2 && !strcmp(m.runs[0].id.scene, "alpha")); /* sorted by scene */
     CHECK(m.n_clips == 3 && !strcmp(m.clips[1].file, "clips/zeta_n06_000.safetensors"));
     /* Replacing a run drops its previous clips. */
-    gv_manifest_run r1b = {"zeta", "train", 6, 1, 13.0};
+    gv_manifest_run r1b = {{"zeta", "train", 6}, 1, 13.0};
     CHECK(gv_manifest_add_run(&m, &r1b, c1 + 1, 1) == 0 && m.n_runs == 2 && m.n_clips == 2);
     CHECK(gv_manifest_find_run(&m, "zeta", 6) == 1 && gv_manifest_find_run(&m, "zeta", 8) == -1);
     CHECK(gv_manifest_write(dir, &m) == 0);
