@@ -4,7 +4,8 @@
 set -euo pipefail
 
 packages=(build-essential cmake pkg-config libopenblas-openmp-dev libpng-dev libjpeg-dev
-          libcjson-dev zlib1g-dev libsentencepiece-dev)
+          libcjson-dev zlib1g-dev libsentencepiece-dev
+          openmpi-bin libopenmpi-dev)   # mpirun: data-parallel training (docs/DISTRIBUTED.md)
 # `setup.sh fuzz`: the libFuzzer harnesses need clang, its sanitizer and libFuzzer runtimes
 # and its OpenMP (fuzz/fuzz.cmake).
 if [ "${1:-}" = fuzz ]; then packages+=(clang libclang-rt-dev libomp-dev); fi
