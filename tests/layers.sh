@@ -6,7 +6,7 @@
 # header no module owns, every src/ folder missing from the order and CBLAS outside src/nn/.
 # Usage: bash tests/layers.sh SOURCE_DIR
 LAYERS='
-core    : -           : core camera
+core    : -           : core camera dist
 io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files npy json
 scene   : io          : scene synth reproject
 splat   : scene       : splat splat_train render coverage
