@@ -41,7 +41,9 @@ int gv_dist_same(uint64_t value, int *same);
 /* Rank 0 receives every rank's bytes, in rank order, in *all (malloc'd; *sizes holds
  * gv_dist_size() lengths, malloc'd); other ranks only send and get NULLs. */
 int gv_dist_gather(const void *mine, size_t bytes, char **all, size_t **sizes);
-/* Waits until every rank gets here. */
+/* Waits until every rank gets here, asleep after the first millisecond: Open MPI's own waits
+ * poll and would take a core from the ranks still computing. The collectives above wait here
+ * first, so they poll only while their data moves. */
 int gv_dist_barrier(void);
 
 #endif
