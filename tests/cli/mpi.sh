@@ -75,7 +75,7 @@ check "one log, a row per step" test "$(wc -l <t2.tsv)" -eq 5
 check "the same losses logged" diff <(cut -f1,3-8 t1.tsv) <(cut -f1,3-8 t2.tsv)
 # Two clips per rank: the four clips' gradients are summed (g0 + g1) + (g2 + g3) instead of
 # ((g0 + g1) + g2) + g3, so the weights differ by rounding only: far below a step's size
-# (lr 1e-4 moves a weight by about 1e-4 per step; measured 5e-9 after 3 steps).
+# (lr 1e-4 moves a weight by about 1e-4 per step; measured 6e-9 after 4 steps).
 expect 0 "batch 4, one process" -- "$G" "${TR[@]}" --batch 4 --out b1.safetensors
 expect 0 "batch 4, two ranks" -- "${M[@]}" "$G" "${TR[@]}" --batch 4 --out b2.safetensors
 d=$(max_diff b1.safetensors b2.safetensors)
