@@ -4,7 +4,8 @@
 set -euo pipefail
 
 packages=(build-essential cmake pkg-config libopenblas-openmp-dev libpng-dev libjpeg-dev
-          libcjson-dev zlib1g-dev libsentencepiece-dev)
+          libcjson-dev zlib1g-dev libsentencepiece-dev
+          openmpi-bin libopenmpi-dev)   # mpirun: data-parallel training (docs/DISTRIBUTED.md)
 # `reconstruct` encodes its video with ffmpeg; `scene colmap` runs COLMAP (headless, on the CPU).
 packages+=(ffmpeg colmap)
 # `setup.sh fuzz`: the libFuzzer harnesses need clang, its sanitizer and libFuzzer runtimes

@@ -3,10 +3,11 @@
 # of its own module and of the modules below it, never of one above. Each line: a module, the
 # modules right below it (what it may use, with everything below them), and its public headers
 # in include/gaussvid/. Fails naming every include that points up or sideways, every public
-# header no module owns, every src/ folder missing from the order and CBLAS outside src/nn/.
+# header no module owns, every src/ folder missing from the order, CBLAS outside src/nn/ and
+# <mpi.h> outside src/core/dist.c.
 # Usage: bash tests/layers.sh SOURCE_DIR
 LAYERS='
-core    : -           : core camera
+core    : -           : core camera dist
 io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files npy json
 scene   : io          : scene synth reproject scene_colmap
 splat   : scene       : splat splat_train render coverage
@@ -78,6 +79,11 @@ done < <(find src bench include -name '*.[ch]' | sort)
 # against plain SGEMM.
 for f in $(grep -rlE '#[[:space:]]*include[[:space:]]+<cblas.h>' src bench); do
     [[ $f == src/nn/* || $f == src/cli/main.c || $f == bench/bench_nn.c ]] || bad "$f includes <cblas.h>: use the tensor engine (gv_gemm, ops.h)"
+done
+
+# MPI is known to one file (docs/DISTRIBUTED.md): everything else asks dist.h.
+for f in $(grep -rlE '#[[:space:]]*include[[:space:]]+<mpi.h>' src bench include tests); do
+    [[ $f == src/core/dist.c ]] || bad "$f includes <mpi.h>: only src/core/dist.c does (use dist.h)"
 done
 
 echo "layers: $checked includes checked against ${#modules[@]} modules"

@@ -80,7 +80,8 @@ typedef struct {
  * o->val_every steps and at step 0, and keeps the adapters of the step with the highest mean
  * held-back latent gain (the earliest on a tie) in best_path, which a resumed run continues
  * from (when written by the same options and clips). When step S is reached, m holds those
- * adapters. Returns 0 when done, 1 when the run stopped before S (o->stop_after). */
+ * adapters. Returns 0 when done, 1 when the run stopped before S (o->stop_after) and on the
+ * ranks of an mpirun job other than 0, which end after the last step (dist.h). */
 int gv_adapt_train(gv_dit *m, const gv_model_config *cfg, const gv_latent_set *train, const gv_latent_set *held,
                    gv_train_options *o, const gv_train_state *meta, const char *best_path, gv_adapt_best *best,
                    gv_train_report *report);

@@ -8,6 +8,7 @@
 
 #include "cli/commands.h"
 #include "gaussvid/core.h"
+#include "gaussvid/dist.h"
 
 #define GAUSSVID_VERSION "0.1.0"
 
@@ -76,6 +77,15 @@ static void prefer_runtime_env(char **argv)
     if (changed) execv("/proc/self/exe", argv);
 }
 
+/* The commands that share their work among the ranks of an mpirun job (docs/DISTRIBUTED.md);
+ * any other would run K times over into the same files. */
+static int shares_work(int argc, char **argv)
+{
+    const char *name = argv[1];
+    return !strcmp(name, "pretrain") || !strcmp(name, "train") || !strcmp(name, "adapt") ||
+           (!strcmp(name, "dataset") && argc > 2 && !strcmp(argv[2], "build"));
+}
+
 int main(int argc, char **argv)
 {
     prefer_runtime_env(argv);
@@ -98,10 +108,20 @@ int main(int argc, char **argv)
     }
     if (!strcmp(name, "version") || !strcmp(name, "--version")) {
         printf("gaussvid %s\n", GAUSSVID_VERSION);
+        printf("MPI: %s\n", gv_dist_library());
         return 0;
     }
     for (int i = 0; i < n_commands; i++)
-        if (!strcmp(name, commands[i].name)) return commands[i].run(argc - 1, argv + 1);
+        if (!strcmp(name, commands[i].name)) {
+            /* under mpirun every rank runs the command; dist.h says who writes what */
+            gv_dist_start(&argc, &argv);
+            if (gv_dist_size() > 1 && !shares_work(argc, argv)) {
+                fprintf(stderr, "gaussvid %s: runs as one process; under mpirun only pretrain, train, adapt and "
+                                "dataset build share their work among the ranks\n", name);
+                return gv_dist_end(2);
+            }
+            return gv_dist_end(commands[i].run(argc - 1, argv + 1));
+        }
     fprintf(stderr, "gaussvid: unknown command '%s' (see 'gaussvid help')\n", name);
     return 2;
 }

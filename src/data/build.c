@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "data/build_internal.h"
+#include "gaussvid/dist.h"
 
 void gv_dataset_default_params(gv_dataset_params *p)
 {
@@ -189,7 +190,7 @@ static int build_one(build_state *b, int r)
     const scene_set *s = b->scenes;
     gv_info("dataset: starting %s n=%d (%s split)", s->names[i], n, s->splits[i]);
     data_run run = {&s->scenes[i], {"", "", n}, &opt->params, opt->simulator ? opt->simulator : &gv_artifact_3dgs,
-                    opt->out_dir};
+                    opt->out_dir, gv_dist_is_root()};
     snprintf(run.id.scene, sizeof run.id.scene, "%s", s->names[i]);
     snprintf(run.id.split, sizeof run.id.split, "%s", s->splits[i]);
     gv_run_record rec;
@@ -239,34 +240,60 @@ static int build_side_by_side(build_state *b, const int *todo, int jobs)
     return failed ? gv_fail("%s", first_error) : 0;
 }
 
-/* Runs every (scene, n) not yet complete; one line of overall progress per run. */
+/* Runs every (scene, n) not yet complete; one line of overall progress per run. Under mpirun
+ * rank r builds the runs to do k = r, r + K, r + 2K, ... and rank 0 merges the manifest. */
 static int build_runs(const gv_dataset_build_options *opt, const scene_set *s, gv_manifest *m,
                       gv_dataset_build_result *result)
 {
     int total = s->n * opt->n_intervals;
     int *todo = malloc((size_t)total * sizeof *todo);
-    if (!todo) return gv_fail("out of memory for %d runs", total);
+    gv_run_id *mine = calloc((size_t)total + 1, sizeof *mine);
+    if (!todo || !mine) {
+        free(todo), free(mine);
+        return gv_fail("out of memory for %d runs", total);
+    }
     result->runs_total = total;
-    int n_todo = 0;
+    int n_todo = 0, n_mine = 0, ranks = gv_dist_size();
     for (int r = 0; r < total; r++) {
         int c, i = r / opt->n_intervals, n = opt->intervals[r % opt->n_intervals];
         if (run_is_complete(opt->out_dir, m, s->names[i], n, s->splits[i], &c) != 0) {
-            free(todo);
+            free(todo), free(mine);
             return -1;
         }
         if (c) result->runs_skipped++;
-        else todo[n_todo++] = r;
+        else if (n_todo++ % ranks == gv_dist_rank()) {
+            todo[n_mine] = r;
+            snprintf(mine[n_mine].scene, sizeof mine[n_mine].scene, "%s", s->names[i]);
+            mine[n_mine++].n = n;
+        }
     }
-    int jobs = opt->jobs < 1 ? 1 : opt->jobs < n_todo ? opt->jobs : n_todo;
+    int jobs = opt->jobs < 1 ? 1 : opt->jobs < n_mine ? opt->jobs : n_mine;
+    if (jobs < 1) jobs = 1;
+    char share[64] = "";
+    if (ranks > 1) snprintf(share, sizeof share, " on each of %d ranks", ranks);
     gv_info("dataset: %d runs (%d scenes x %d intervals): %d already built, %d to build, %d at a "
-            "time", total, s->n, opt->n_intervals, result->runs_skipped, n_todo, jobs);
-    build_state b = {opt, s, m, result, n_todo, gv_now()};
+            "time%s", total, s->n, opt->n_intervals, result->runs_skipped, n_todo, jobs, share);
+    build_state b = {opt, s, m, result, n_mine, gv_now()};
     int rc = 0;
     if (jobs > 1) rc = build_side_by_side(&b, todo, jobs);
     else
-        for (int k = 0; k < n_todo && rc == 0; k++) rc = build_one(&b, todo[k]);
-    free(todo);
+        for (int k = 0; k < n_mine && rc == 0; k++) rc = build_one(&b, todo[k]);
+    if (rc == 0) rc = data_merge_ranks(opt->out_dir, m, mine, n_mine, result);
+    free(todo), free(mine);
     return rc;
+}
+
+/* Sweeps the folder, reads its manifest, checks the options and marks the folder as a
+ * dataset's: rank 0 writes; the other ranks read what it left (after it, see below). */
+static int open_out_dir(const gv_dataset_build_options *opt, gv_manifest *m)
+{
+    int found, root = gv_dist_is_root();
+    if ((root && prepare_out_dir(opt->out_dir) != 0) || gv_manifest_read(opt->out_dir, m, &found) != 0) return -1;
+    /* A folder without a finished run takes this build's options. */
+    if (found && m->n_runs > 0 && same_params(opt->out_dir, &m->params, &opt->params) != 0) return -1;
+    m->params = opt->params;
+    if (root && m->n_runs == 0 && gv_manifest_write(opt->out_dir, m) != 0) return -1; /* marks the folder */
+    return 0;
 }
 
 int gv_dataset_build(const gv_dataset_build_options *opt, gv_dataset_build_result *result)
@@ -279,16 +306,14 @@ int gv_dataset_build(const gv_dataset_build_options *opt, gv_dataset_build_resul
     if (check_params(&opt->params) != 0) return -1;
     scene_set scenes;
     gv_manifest m;
-    int found, rc = -1;
+    int rc = -1;
     gv_manifest_init(&m, NULL);
-    if (load_scenes(opt, &scenes) != 0 || prepare_out_dir(opt->out_dir) != 0 ||
-        gv_manifest_read(opt->out_dir, &m, &found) != 0)
-        goto done;
-    /* A folder without a finished run takes this build's options. */
-    if (found && m.n_runs > 0 && same_params(opt->out_dir, &m.params, &opt->params) != 0) goto done;
-    m.params = opt->params;
-    if (m.n_runs == 0 && gv_manifest_write(opt->out_dir, &m) != 0) goto done; /* marks the folder */
-    rc = build_runs(opt, &scenes, &m, result);
+    if (load_scenes(opt, &scenes) != 0) goto done;
+    /* under mpirun the other ranks open the folder once rank 0 has swept and marked it */
+    if (!gv_dist_is_root() && gv_dist_after_root(0, opt->out_dir) != 0) goto done;
+    int opened = open_out_dir(opt, &m);
+    if (gv_dist_is_root() && gv_dist_after_root(opened, opt->out_dir) != 0) goto done;
+    if (opened == 0) rc = build_runs(opt, &scenes, &m, result);
 done:
     result->seconds = gv_now() - start;
     gv_manifest_free(&m);

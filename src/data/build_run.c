@@ -189,7 +189,7 @@ static int commit_run(const data_run *run, gv_run_record *rec, gv_manifest_clip 
     entry.n_clips = rec->n_clips;
     entry.seconds = rec->seconds;
     if (gv_manifest_add_run(m, &entry, entries, rec->n_clips) != 0) return -1;
-    return gv_manifest_write(run->out_dir, m);
+    return run->write_manifest ? gv_manifest_write(run->out_dir, m) : 0;
 }
 
 int data_build_run(const data_run *run, gv_manifest *m, gv_run_record *rec)

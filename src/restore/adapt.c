@@ -8,6 +8,7 @@
 
 #include "gaussvid/adapt.h"
 #include "gaussvid/core.h"
+#include "gaussvid/dist.h"
 
 void gv_adapt_defaults(gv_adapt_options *o)
 {
@@ -137,7 +138,10 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
         return -1;
     double t = gv_now();
     gv_internal_options po = {o->interval, o->iters, o->train.seed, o->simulator, pairs};
-    int rc = gv_internal_build(&scene, &po, &r->pairs);
+    /* under mpirun rank 0 builds the pairs and the others wait for them: only the fine-tuning
+     * is shared among the ranks */
+    int rc = gv_dist_is_root() ? gv_internal_build(&scene, &po, &r->pairs) : 0;
+    rc = gv_dist_after_root(gv_dist_is_root() ? rc : 0, pairs);
     if (rc == 0) gv_scene_name_of(scene.dir, a->scene, sizeof a->scene);
     gv_scene_free(&scene);
     if (rc) return -1;

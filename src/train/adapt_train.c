@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "gaussvid/core.h"
+#include "gaussvid/dist.h"
 #include "gaussvid/scene_adapt.h"
 #include "train/train_internal.h"
 
@@ -130,6 +131,9 @@ int gv_adapt_train(gv_dit *m, const gv_model_config *cfg, const gv_latent_set *t
     o->on_validation = NULL, o->on_validation_ctx = NULL;
     if (rc) return -1;
     if (report->end_step < o->steps) return 1;
+    /* under mpirun the other ranks are done here: rank 0 alone validated, and it keeps the best
+     * step, measures the gate and writes the scene checkpoint */
+    if (!gv_dist_is_root()) return 1;
     if (best->step < 0) return gv_fail("%s: no validation was kept; remove it and the run's checkpoint", best_path);
     if (gv_adapters_load(best_path, m)) return -1;
     return 0;

@@ -10,6 +10,7 @@
 
 #include "gaussvid/condition.h"
 #include "gaussvid/core.h"
+#include "gaussvid/dist.h"
 #include "gaussvid/safetensors.h"
 
 #define CACHE_FORMAT "gaussvid.latents"
@@ -245,10 +246,24 @@ static int load_one(const char *dir, gv_latent_set *s, int i, char hash[20], cac
     return rc;
 }
 
+static int load_set(const char *dataset_dir, const char *split, const char *vae_path, gv_vae *vae,
+                    const gv_model_config *cfg, gv_latent_set *out);
+
+/* Under mpirun rank 0 loads first, encoding what the cache lacks and writing it; the other
+ * ranks then read the cache it wrote instead of encoding the same clips again. */
 int gv_latent_set_load(const char *dataset_dir, const char *split, const char *vae_path, gv_vae *vae,
                        const gv_model_config *cfg, gv_latent_set *out)
 {
     memset(out, 0, sizeof *out);
+    if (!gv_dist_is_root() && gv_dist_after_root(0, dataset_dir)) return -1;
+    int rc = load_set(dataset_dir, split, vae_path, vae, cfg, out);
+    if (gv_dist_is_root() && gv_dist_after_root(rc, dataset_dir)) return -1;
+    return rc;
+}
+
+static int load_set(const char *dataset_dir, const char *split, const char *vae_path, gv_vae *vae,
+                    const gv_model_config *cfg, gv_latent_set *out)
+{
     gv_manifest m;
     int found = 0;
     if (gv_manifest_read(dataset_dir, &m, &found)) return -1;

@@ -36,4 +36,19 @@ void gv_train_noise(const gv_train_options *o, long step, int b, int64_t n, floa
  * (identities floored at 1e-3 of their mean); *out is malloc'd, data->count values. */
 int gv_train_relative_weights(const gv_latent_set *data, double **out);
 
+/* grad_sum.c: a step's gradient summed over its clips, each clip's from zero, then over the
+ * ranks (docs/DISTRIBUTED.md). add: the parameters' gradients (one clip's) into the sum, and
+ * zeroes them; finish: the sum over the ranks into the parameters' gradients. */
+typedef struct {
+    float *sum;                  /* every trainable float, in the registry's order */
+    int64_t count;
+    int clips;                   /* clips added since the last finish */
+} gv_grad_sum;
+int gv_grad_sum_init(gv_grad_sum *s, const gv_params *ps);
+void gv_grad_sum_free(gv_grad_sum *s);
+void gv_grad_sum_add(gv_grad_sum *s, gv_params *ps);
+int gv_grad_sum_finish(gv_grad_sum *s, gv_params *ps);
+/* FNV-1a 64 of the trainable tensors' values: the ranks compare it at each checkpoint. */
+uint64_t gv_params_checksum(const gv_params *ps);
+
 #endif

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "gaussvid/core.h"
+#include "gaussvid/dist.h"
 #include "gaussvid/train.h"
 #include "train/train_internal.h"
 
@@ -49,6 +50,7 @@ typedef struct {
     float *eps;
     gv_clip_latents crop;          /* the window of the current sample (--crop) */
     gv_graph g;
+    gv_grad_sum grad;              /* the step's gradient over its clips and the ranks */
     FILE *log, *val_log;
 } loop_ctx;
 
@@ -71,12 +73,13 @@ int gv_train_relative_weights(const gv_latent_set *data, double **out)
     return 0;
 }
 
-static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_options *o, long start)
+static int ctx_init(loop_ctx *x, gv_dit *m, const gv_latent_set *data, const gv_train_options *o, long start)
 {
     int appending = start > 0;
     memset(x, 0, sizeof *x);
     x->o = o;
     gv_graph_init(&x->g, 0);
+    if (gv_grad_sum_init(&x->grad, &m->params)) return -1;
     gv_pretrain_schedule_init(&x->grid, o->shift);
     if (gv_data_order_init(&x->order, data->count, o->seed)) return -1;
     int64_t most = gv_latent_set_max_z_count(data);
@@ -89,6 +92,7 @@ static int ctx_init(loop_ctx *x, const gv_latent_set *data, const gv_train_optio
     for (int i = 0; curriculum && i < data->count; i++)
         x->difficulty[i] = gv_curriculum_difficulty(data->clips[i].n, o->n_min, o->n_max);
     if (o->objective == GV_OBJECTIVE_FINETUNE && o->relative_loss && gv_train_relative_weights(data, &x->relative)) return -1;
+    if (!gv_dist_is_root()) return 0; /* rank 0 writes the logs */
     /* resumed after a kill: the rows past the checkpoint are written again */
     if (appending && o->log_path && gv_step_log_rewind(o->log_path, start)) return -1;
     if (appending && o->val && o->val_log && gv_step_log_rewind(o->val_log, start)) return -1;
@@ -109,40 +113,50 @@ static void ctx_free(loop_ctx *x)
 {
     gv_data_order_free(&x->order);
     gv_graph_free(&x->g);
+    gv_grad_sum_free(&x->grad);
     free(x->difficulty), free(x->relative), free(x->index), free(x->weight), free(x->eps);
     gv_clip_latents_free(&x->crop);
     if (x->log) fclose(x->log);
     if (x->val_log) fclose(x->val_log);
 }
 
-/* One optimiser step; *mean gets the batch's mean losses. */
+/* One optimiser step; *mean gets the batch's mean losses. Every rank draws the same batch;
+ * each computes the clips of its share (all of them in one process), the gradients and losses
+ * are summed over the ranks, and every rank takes the same AdamW step. */
 static int train_step(gv_dit *m, const gv_latent_set *data, loop_ctx *x, gv_train_state *st, double threshold,
                       double lr, int *skipped, gv_sample_losses *mean)
 {
     const gv_train_options *o = x->o;
+    memset(mean, 0, sizeof *mean);
     if (gv_curriculum_batch(&x->order, x->difficulty, threshold, o->batch, &st->data_position, x->index, x->weight,
                             skipped))
         return -1;
-    memset(mean, 0, sizeof *mean);
+    double losses[3] = {0, 0, 0};
+    long first, end;
+    gv_dist_share(o->batch, &first, &end);
     gv_params_zero_grad(&m->params);
-    for (int b = 0; b < o->batch; b++) {
+    for (long b = first; b < end; b++) {
         const gv_clip_latents *l = &data->clips[x->index[b]];
         const int ph = m->cfg.dit.patch_size[1], pw = m->cfg.dit.patch_size[2];
         gv_sample_draw d;
         gv_sample_losses s;
         gv_train_window win;
-        gv_train_draw(o, &x->grid, st->step, b, x->weight[b], l->lh / ph, l->lw / pw, &d, &win);
+        gv_train_draw(o, &x->grid, st->step, (int)b, x->weight[b], l->lh / ph, l->lw / pw, &d, &win);
         if (win.h * ph < l->lh || win.w * pw < l->lw) {
             if (gv_clip_latents_crop(l, win.y * ph, win.x * pw, win.h * ph, win.w * pw, &x->crop))
                 return gv_fail_context("step %ld (%s)", st->step + 1, data->names[x->index[b]]);
             l = &x->crop;
         }
-        gv_train_noise(o, st->step, b, gv_clip_latents_z_count(l), x->eps);
+        gv_train_noise(o, st->step, (int)b, gv_clip_latents_z_count(l), x->eps);
         double scale = (x->relative ? x->relative[x->index[b]] : 1.0) / o->batch;
         if (gv_train_sample(m, &x->g, l, o->objective, &d, x->eps, scale, 1, &s))
             return gv_fail_context("step %ld (%s)", st->step + 1, data->names[x->index[b]]);
-        mean->loss += s.loss / o->batch, mean->fm += s.fm / o->batch, mean->latent += s.latent / o->batch;
+        gv_grad_sum_add(&x->grad, &m->params);
+        losses[0] += s.loss / o->batch, losses[1] += s.fm / o->batch, losses[2] += s.latent / o->batch;
     }
+    if (gv_grad_sum_finish(&x->grad, &m->params) || gv_dist_sum_doubles(losses, 3))
+        return gv_fail_context("step %ld", st->step + 1);
+    mean->loss = losses[0], mean->fm = losses[1], mean->latent = losses[2];
     if (o->clip_norm > 0) gv_clip_grad_norm(&m->params, o->clip_norm);
     gv_adamw_config ac = gv_adamw_defaults();
     ac.weight_decay = (float)o->weight_decay;
@@ -194,10 +208,17 @@ static int validate(gv_dit *m, loop_ctx *x, const gv_train_state *st, gv_progres
     return 0;
 }
 
+/* Rank 0 writes; under mpirun every rank first checks that the ranks hold the same weights
+ * (they take the same steps from the same sums, so a difference is a fault to report). */
 static int save_checkpoint(const char *path, gv_dit *m, const gv_model_config *cfg, const gv_train_state *st,
                            int with_moments)
 {
-    if (gv_checkpoint_save(path, m, cfg, st, with_moments)) return gv_fail_context("training: step %ld", st->step);
+    int same = 1;
+    if (gv_dist_size() > 1 && gv_dist_same(gv_params_checksum(&m->params), &same))
+        return gv_fail_context("training: step %ld", st->step);
+    if (!same) return gv_fail("training: step %ld: the ranks hold different weights", st->step);
+    if (gv_dist_is_root() && gv_checkpoint_save(path, m, cfg, st, with_moments))
+        return gv_fail_context("training: step %ld", st->step);
     return 0;
 }
 
@@ -214,21 +235,24 @@ int gv_train_run(gv_dit *m, const gv_model_config *save_cfg, const gv_latent_set
     st.steps = o->steps;
     st.seed = o->seed;
     gv_train_options_text(o, st.training, sizeof st.training);
-    gv_atomic_sweep_beside(o->out); /* temporaries of the weights and checkpoint a kill left */
+    if (o->batch < gv_dist_size())
+        return gv_fail("training: a batch of %d clips for %d ranks: each rank needs a clip (--batch at least %d)",
+                       o->batch, gv_dist_size(), gv_dist_size());
+    if (gv_dist_is_root()) gv_atomic_sweep_beside(o->out); /* temporaries of the weights and checkpoint a kill left */
     int resumed = o->resume && gv_file_exists(ckpt);
     if (resumed && resume(m, save_cfg, ckpt, &st)) return -1;
     if (o->resume && !resumed) gv_info("%s: no checkpoint, starting at step 0", ckpt);
     if (st.step > o->steps) return gv_fail("%s: at step %ld, beyond the run's %ld steps", ckpt, st.step, o->steps);
     long start = st.step, end = o->stop_after > 0 && o->stop_after < o->steps ? o->stop_after : o->steps;
     loop_ctx x;
-    int rc = ctx_init(&x, data, o, start);
+    int rc = ctx_init(&x, m, data, o, start);
     gv_lr_schedule sched = {o->lr_schedule, o->lr, o->min_lr, o->warmup, o->steps};
     int curriculum = x.difficulty != NULL;
     gv_progress bar;
     gv_progress_start(&bar, o->objective == GV_OBJECTIVE_PRETRAIN ? "pretrain" : "train", end > start ? end - start : 0);
     double t0 = gv_now(), seconds0 = st.seconds, avg = st.loss, first = 0, step_seconds = 0;
     long used0 = st.clips_used;
-    int validating = o->val && o->val_every > 0;
+    int validating = o->val && o->val_every > 0 && gv_dist_is_root(); /* the others wait at the next step */
     if (rc == 0 && validating && start == 0 && end > 0) rc = validate(m, &x, &st, &bar);
     for (long step = start; rc == 0 && step < end; step++) {
         double threshold = curriculum ? gv_curriculum_threshold(step, o->steps, o->p_w) : -1, lr = gv_lr_at(&sched, step);
