@@ -42,6 +42,11 @@ static inline void fuzz_read_tensors(const gv_st_file *f, const char *needle)
     for (int i = 0; i < f->n_tensors; i++) {
         const gv_st_tensor *t = &f->tensors[i];
         if (gv_st_find(f, t->name) != t) abort(); /* every tensor found by its name */
+        int64_t n = 1; /* its shape holds its elements */
+        if (t->rank < 0 || t->rank > GV_ST_MAX_RANK) abort();
+        for (int k = 0; k < t->rank; k++)
+            if (t->shape[k] < 0 || __builtin_mul_overflow(n, t->shape[k], &n)) abort();
+        if (n != t->n_elements) abort();
         if (t->end < t->begin || (uint64_t)t->n_elements * (uint64_t)gv_st_dtype_bits(t->dtype) / 8 >
                                      t->end - t->begin + 1)
             abort(); /* its bytes hold its elements */
