@@ -75,6 +75,13 @@ static inline void fuzz_check_failure(int rc, const char *needle)
     }
 }
 
+/* With FUZZ_VERBOSE set, says what became of an input (to check that seeds get past the
+ * first checks: `FUZZ_VERBOSE=1 build-fuzz/fuzz_pth -runs=1 SEED...`). */
+static inline void fuzz_report(int rc, const char *what)
+{
+    if (getenv("FUZZ_VERBOSE")) fprintf(stderr, "fuzz: %s\n", rc ? gv_last_error() : what);
+}
+
 /* Each harness defines this: one input through one reader. */
 static int fuzz_one(const uint8_t *data, size_t size);
 

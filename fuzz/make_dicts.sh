@@ -38,4 +38,19 @@ json_syntax() {
       printf '"%s"\n' "$c"; done
   printf '%s\n' '"\x89PNG\x0d\x0a\x1a\x0a"' '"\xff\xd8\xff"' '"\xff\xc0"' '"\xff\xc2"' '"\xff\xc4"' '"\xff\xda"' \
       '"\xff\xdb"' '"\xff\xdd"' '"\xff\xd9"' '"\xff\xe0"' '"\xff\xe1"' '"JFIF\x00"' '"Exif\x00\x00"' '"\xff\xff"'; } > $D/image.dict
+# PyTorch zip checkpoints: pickle opcodes, the names a state dict's pickle holds (GLOBAL lines
+# and strings), zip signatures and entry names, and the harness's piece separator.
+{ for op in 80 95 2e 28 7d 29 4e 88 89 4a 4b 4d 8a 58 8c 8d 74 85 86 87 73 75 71 72 94 68 6a 63 93 51 52 62 69 6f; do
+      printf '"\\x%s"\n' "$op"; done
+  printf '%s\n' '"\x80\x02"' '"\x80\x04\x95"' '"collections\x0aOrderedDict\x0a"' '"torch._utils\x0a_rebuild_tensor_v2\x0a"' \
+      '"torch._utils\x0a_rebuild_parameter\x0a"' '"torch\x0aFloatStorage\x0a"' '"torch\x0aBFloat16Storage\x0a"' \
+      '"torch\x0aHalfStorage\x0a"' '"\x8c\x05torch"' '"\x8c\x0ctorch._utils"' '"X\x07\x00\x00\x00storage"' \
+      '"\x8c\x03cpu"' '"\xff\xff\xff\xff"' '"\xff\xff"' '"\x00\x00\x00\x00\x00\x00\x00\x40"' \
+      '"PK\x03\x04"' '"PK\x01\x02"' '"PK\x05\x06"' '"PK\x06\x06"' '"PK\x06\x07"' '"\x01\x00\x18\x00"' \
+      '"archive/"' '"data.pkl"' '"data/"' '"byteorder"' '"little"' '"big"' '"version"' '"#PIECE#"';
+  literals src/io/pickle.c | grep -vE '^"[A-Z0-9_]+"$'; } | sort -u > $D/pth.dict
+# sharded safetensors: the index's keys and shard names, and the safetensors dictionary.
+{ cat $D/safetensors.dict; printf '%s\n' '"weight_map"' '"metadata"' '"total_size"' '"#PIECE#"' '"../"' '"/"' \
+      '"diffusion_pytorch_model-00001-of-00002.safetensors"' '"diffusion_pytorch_model-00002-of-00002.safetensors"' \
+      '"diffusion_pytorch_model.safetensors.index.json"'; } | sort -u > $D/st_index.dict
 wc -l $D/*.dict

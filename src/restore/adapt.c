@@ -146,6 +146,7 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
     gv_scene_free(&scene);
     if (rc) return -1;
     a->seconds_pairs = gv_now() - t, t = gv_now();
+    gv_info("adapt: latents: the base loaded, the internal clips through its VAE (cached in %s)", pairs);
     if (load_model_and_data(o, pairs, x)) return -1;
     a->seconds_latents = gv_now() - t, t = gv_now();
 
@@ -196,6 +197,7 @@ int gv_adapt_scene(const gv_adapt_options *o, gv_adapt_report *r)
                        "every >= 2", o->interval, o->iters, o->hold_every);
     if (o->work_dir) snprintf(r->work_dir, sizeof r->work_dir, "%s", o->work_dir);
     else snprintf(r->work_dir, sizeof r->work_dir, "%s.work", o->out);
+    gv_atomic_sweep_beside(o->out); /* the temporary of a scene checkpoint a kill cut short */
     if (gv_file_exists(o->out)) { /* done before: its record is the report */
         if (gv_scene_checkpoint_read(o->out, &r->adaptation)) return -1;
         r->done = r->already = 1;

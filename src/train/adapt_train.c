@@ -124,6 +124,7 @@ int gv_adapt_train(gv_dit *m, const gv_model_config *cfg, const gv_latent_set *t
     best->step = -1;
     char ckpt[4200];
     snprintf(ckpt, sizeof ckpt, "%s.ckpt", o->out);
+    gv_atomic_sweep_beside(best_path); /* a kill while it was written leaves its temporary */
     if (o->resume && gv_file_exists(ckpt)) resume_best(&k);
     o->val = held;
     o->on_validation = keep_best, o->on_validation_ctx = &k;

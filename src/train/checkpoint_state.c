@@ -50,7 +50,7 @@ int gv_ckpt_add_state(gv_st_builder *b, const gv_dit *m, const gv_model_config *
     snprintf(num[5], 40, "%ld", s->clips_skipped);
     snprintf(num[6], 40, "%llu", (unsigned long long)s->seed);
     snprintf(num[7], 40, "%.3f", s->seconds);
-    snprintf(num[8], 40, "%.9g", s->loss);
+    snprintf(num[8], 40, "%.17g", s->loss); /* exact: a resumed run continues the average from it */
     const char *keys[] = {"format", "format_version", "kind", "config", "parts", "step", "steps", "adamw_step",
                           "data_position", "clips_used", "clips_skipped", "seed", "seconds", "loss", "vae",
                           "vae_checksum", "base", "clips", "data", "training", "rng"};

@@ -261,7 +261,8 @@ int gv_train_run(gv_dit *m, const gv_model_config *save_cfg, const gv_latent_set
         double t_step = gv_now();
         if ((rc = train_step(m, data, &x, &st, threshold, lr, &skipped, &mean))) break;
         step_seconds += gv_now() - t_step;
-        avg = step == start ? mean.loss : 0.95 * avg + 0.05 * mean.loss;
+        /* the recorded loss averages over the whole run: a resumed run continues the checkpoint's */
+        avg = step == 0 ? mean.loss : 0.95 * avg + 0.05 * mean.loss;
         if (step == start) first = avg;
         st.loss = avg;
         double elapsed = gv_now() - t0, rate = step_seconds > 0 ? (double)(st.clips_used - used0) / step_seconds : 0;

@@ -57,6 +57,7 @@ has "pretrained to step 2 of 4"
 check "no final file before the end" test ! -e base2.safetensors
 expect 0 "pretrain, resumed" -- "$G" pretrain "${PRE[@]}" --out base2.safetensors --resume
 check "resumed pretraining is bit-exact" same_data base.safetensors base2.safetensors
+check "resumed pretraining records the same loss average" test "$(meta base.safetensors loss)" = "$(meta base2.safetensors loss)"
 check "moments bit-exact too" same_data base.safetensors.ckpt base2.safetensors.ckpt
 expect 2 "render context above 1" -- "$G" pretrain "${PRE[@]}" --out x.safetensors --render-context 1.5
 one_line "render-context"
@@ -78,6 +79,7 @@ check "holds LoRA" grep -q "lora_B.weight" <("$G" st inspect ft.safetensors)
 expect 0 "train, interrupted" -- "$G" train "${FT[@]}" --out ft2.safetensors --stop-after 1
 expect 0 "train, resumed" -- "$G" train "${FT[@]}" --out ft2.safetensors --resume
 check "resumed fine-tuning is bit-exact" same_data ft.safetensors ft2.safetensors
+check "resumed fine-tuning records the same loss average" test "$(meta ft.safetensors loss)" = "$(meta ft2.safetensors loss)"
 expect 1 "resume with other options" -- "$G" train "${FT[@]}" --out ft2.safetensors --resume --lr 3e-4
 one_line "written with other training options"
 
