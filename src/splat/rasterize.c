@@ -169,7 +169,7 @@ SIMD8_INLINE int blend_splat(blend_state *st, const splat2d *s, int j, int px0, 
     return stopped;
 }
 
-SIMD8_CLONES static void render_tile(const gv_splat_tiles *t, int tile, int width, int height,
+RASTER_CLONES static void render_tile(const gv_splat_tiles *t, int tile, int width, int height,
                         const float bg[3], float *image, float *final_T, int *n_contrib)
 {
     int px0 = (tile % t->tiles_x) * GV_SPLAT_TILE, py0 = (tile / t->tiles_x) * GV_SPLAT_TILE;
@@ -283,7 +283,7 @@ SIMD8_INLINE void entry_backward(tile_state *st, const splat2d *s, int j, int px
     row[8] = f8_sum(e_o);
 }
 
-SIMD8_CLONES static void backward_tile(gv_splat_tiles *t, int tile, int width, int height,
+RASTER_CLONES static void backward_tile(gv_splat_tiles *t, int tile, int width, int height,
                                        const float bg[3], const float *final_T,
                                        const int *n_contrib, const float *d_image)
 {

@@ -8,7 +8,7 @@
 #include <stdint.h>
 #include <string.h>
 
-/* The tile functions are compiled twice, for AVX2 and for the baseline (clones.h). */
+/* The tile functions are compiled for AVX-512, AVX2 and the baseline (clones.h). */
 #include "splat/clones.h"
 
 /* Helpers that must be inlined into the cloned tile functions. */
