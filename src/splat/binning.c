@@ -195,7 +195,8 @@ int gv_splat_tiles_build(gv_splat_tiles *t, int n, int width, int height,
 
     int max_threads = omp_get_max_threads();
     if (ensure_thread_scratch(t, max_threads)) return -1;
-#pragma omp parallel num_threads(max_threads)
+    /* a dozen barriers: below some ten thousand Gaussians one thread is faster */
+#pragma omp parallel num_threads(max_threads) if (n >= 16384)
     {
         list_visible(t, n, radii);
         sort_by_depth(t, depths);

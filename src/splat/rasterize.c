@@ -46,16 +46,17 @@ static void pack_splats(const gv_splat_tiles *t, const float *means2d, const flo
         s[6] = colors[3 * g], s[7] = colors[3 * g + 1], s[8] = colors[3 * g + 2];
         float det = A * C - B * B;
         /* alpha = o exp(power) >= 1/255 needs power >= -ln(255 o); with a margin far above
-         * the rounding of expf and of this logf, a group of pixels whose powers are all
-         * below s[11] has no pixel the exact test would blend, so it is skipped. */
-        s[11] = o >= GV_SPLAT_ALPHA_MIN ? -logf(255.0f * o) - 1e-3f : 0;
+         * the rounding of the exponential and of this logf, a group of pixels whose powers
+         * are all below s[11] has no pixel the exact test would blend, so it is skipped. */
+        float log_o = o >= GV_SPLAT_ALPHA_MIN ? logf(255.0f * o) : 0;
+        s[11] = -log_o - 1e-3f;
         if (!(o >= GV_SPLAT_ALPHA_MIN)) {
             /* o exp(power) <= o: below 1/255 it is skipped everywhere (exactly, in float) */
             s[9] = s[10] = -1;
         } else if (!(det > 0) || !(A > 0)) {
             s[9] = s[10] = INFINITY; /* degenerate in float: the whole rectangle */
         } else {
-            float level = 2.0f * (logf(255.0f * o) + 0.1f);
+            float level = 2.0f * (log_o + 0.1f);
             s[9] = sqrtf(level * C / det) + 0.01f;
             s[10] = sqrtf(level * A / det) + 0.01f;
         }
