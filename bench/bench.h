@@ -28,4 +28,8 @@ int gv_bench_splat(const gv_bench_splat_options *o, FILE *out);
 /* `gaussvid bench splat [--scene DIR] [--json] ...` */
 int gv_bench_splat_command(int argc, char **argv);
 
+/* `gaussvid bench raster --model M.ply --scene DIR`: CPU time of each stage of a training
+ * iteration on a fixed model (bench/bench_raster.c). */
+int gv_bench_raster_command(int argc, char **argv);
+
 #endif

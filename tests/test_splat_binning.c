@@ -105,14 +105,16 @@ static void test_random_lists(void)
 /* The lists do not depend on the number of threads that dealt them. */
 static void test_thread_independence(void)
 {
-    enum { N = 5000 };
+    /* Above the size where the listing and the depth sort go parallel (16384); every
+     * seventh Gaussian culled, a fifth of the depths tied at 5. */
+    enum { N = 40000 };
     static float m2[2 * N], depth[N];
     static int radii[N];
     for (int i = 0; i < N; i++) {
         m2[2 * i] = (float)(-20 + 300 * gv_uniform_at(51, 3 * (uint64_t)i));
         m2[2 * i + 1] = (float)(-20 + 190 * gv_uniform_at(51, 3 * (uint64_t)i + 1));
-        radii[i] = 1 + i % 40;
-        depth[i] = (float)(0.3 + 20 * gv_uniform_at(51, 3 * (uint64_t)i + 2));
+        radii[i] = i % 7 == 0 ? 0 : 1 + i % 20;
+        depth[i] = i % 5 == 0 ? 5.0f : (float)(0.3 + 20 * gv_uniform_at(51, 3 * (uint64_t)i + 2));
     }
     gv_splat_tiles a = {0}, b = {0};
     omp_set_num_threads(1);
@@ -121,6 +123,9 @@ static void test_thread_independence(void)
     CHECK(gv_splat_tiles_build(&b, N, 256, 144, m2, radii, depth) == 0);
     omp_set_num_threads(2);
     CHECK(a.n_entries == b.n_entries && a.n_entries > N);
+    CHECK(a.n_visible == b.n_visible && a.n_visible == N - (N + 6) / 7);
+    CHECK(memcmp(a.visible, b.visible, (size_t)a.n_visible * sizeof(int)) == 0);
+    CHECK(memcmp(a.depth_order, b.depth_order, (size_t)a.n_visible * sizeof(int)) == 0);
     CHECK(memcmp(a.entries, b.entries, (size_t)a.n_entries * sizeof(int)) == 0);
     CHECK(memcmp(a.entry_of, b.entry_of, (size_t)a.n_entries * sizeof(int)) == 0);
     CHECK(memcmp(a.tile_offsets, b.tile_offsets, (size_t)(16 * 9 + 1) * sizeof(int)) == 0);

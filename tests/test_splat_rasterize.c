@@ -205,6 +205,76 @@ static void test_reference_agreement(void)
     }
 }
 
+/* Which pixels each Gaussian is blended into must be exactly the reference's: the kernel
+ * skips groups of eight pixels by a bound on the power and pixels outside an alpha box, so
+ * this compares, pixel by pixel, the index of the last blended entry of the tile list
+ * (n_contrib) and the transmittance left (final_T) with an independent double-precision
+ * walk of the reference's rule. Pixels where some alpha or T test is within 1e-5 of its
+ * threshold (float and double may then decide differently) are left out and counted. Low
+ * opacities put the 1/255 threshold inside the boxes, where the group skip acts. */
+static void test_blended_pixels_exact(void)
+{
+    double o_range[3][2] = {{0.004, 0.03}, {0.02, 1.0}, {0.3, 0.99}};
+    for (int k = 0; k < 4; k++) {
+        static scene2d s;
+        random_scene_shaped(&s, 200, 70, 50, o_range[k % 3][0], o_range[k % 3][1], 90 + k, k == 3);
+        render(&s, &out);
+        int tx = (s.width + 15) / 16, ty = (s.height + 15) / 16, compared = 0, ambiguous = 0;
+        int mismatched = 0, blended_pixels = 0;
+        double worst_T = 0;
+        for (int py = 0; py < s.height; py++)
+            for (int px = 0; px < s.width; px++) {
+                /* the tile's list: rectangle holds the tile, sorted by (depth, index) */
+                int list[MAXN], m = 0;
+                for (int g = 0; g < s.n; g++) {
+                    int r[4];
+                    if (s.radii[g] <= 0) continue;
+                    gv_splat_tile_rect(s.m2[2 * g], s.m2[2 * g + 1], s.radii[g], tx, ty, r);
+                    if (px / 16 < r[0] || px / 16 >= r[2] || py / 16 < r[1] || py / 16 >= r[3])
+                        continue;
+                    int at = m++;
+                    while (at > 0 && (s.depth[list[at - 1]] > s.depth[g])) {
+                        list[at] = list[at - 1];
+                        at--;
+                    }
+                    list[at] = g;
+                }
+                double T = 1;
+                int last = 0, unsure = 0;
+                for (int j = 0; j < m; j++) {
+                    int g = list[j];
+                    double dx = s.m2[2 * g] - (px + 0.5), dy = s.m2[2 * g + 1] - (py + 0.5);
+                    const float *q = s.conic + 3 * g;
+                    double power = -0.5 * (q[0] * dx * dx + q[2] * dy * dy) - q[1] * dx * dy;
+                    if (power > 0) continue;
+                    double a = fmin(s.opacity[g] * exp(power), GV_SPLAT_ALPHA_MAX);
+                    if (fabs(a - GV_SPLAT_ALPHA_MIN) < 1e-5 * GV_SPLAT_ALPHA_MIN) unsure = 1;
+                    if (a < GV_SPLAT_ALPHA_MIN) continue;
+                    if (fabs(T * (1 - a) - GV_SPLAT_T_MIN) < 1e-5 * GV_SPLAT_T_MIN) unsure = 1;
+                    if (T * (1 - a) < GV_SPLAT_T_MIN) break;
+                    T *= 1 - a;
+                    last = j + 1;
+                }
+                size_t p = (size_t)py * s.width + px;
+                if (unsure) {
+                    ambiguous++;
+                    continue;
+                }
+                compared++;
+                blended_pixels += last > 0;
+                mismatched += out.n_contrib[p] != last;
+                worst_T = fmax(worst_T, fabs(out.final_T[p] - T));
+            }
+        printf("  blended pixels, scene %d: %d pixels compared (%d with a blended Gaussian), "
+               "%d near a threshold left out; n_contrib differs at %d, max |final_T diff| "
+               "%.2e\n", k, compared, blended_pixels, ambiguous, mismatched, worst_T);
+        CHECK(mismatched == 0);
+        CHECK(worst_T < 1e-5);
+        CHECK(blended_pixels > compared / 2 && ambiguous < compared / 100);
+        gv_splat_tiles_free(&out.tiles);
+    }
+}
+
 /* L = sum w . image through the reference, as a function of the scene's parameters. */
 typedef struct {
     scene2d *s;
@@ -312,6 +382,7 @@ int main(void)
     test_alpha_threshold_and_clamp();
     test_tile_rectangle_limits();
     test_reference_agreement();
+    test_blended_pixels_exact();
     test_gradients(40, 0.2, 61, 1, 0);
     test_gradients(100, 0.5, 63, 7, 1); /* dense, pixels stop early; every 7th Gaussian */
     test_thread_independence();

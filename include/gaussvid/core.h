@@ -31,6 +31,9 @@ void gv_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 /* ---- Time --------------------------------------------------------------------------- */
 double gv_now(void); /* monotonic seconds */
+/* CPU seconds of the whole process (all threads): on a shared machine the steadier measure
+ * of work than the wall clock. */
+double gv_cpu_now(void);
 
 /* ---- Progress bar -------------------------------------------------------------------
  * On a terminal: one line redrawn in place with count, rate and ETA. Otherwise: a plain

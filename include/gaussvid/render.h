@@ -9,6 +9,21 @@
 #include "gaussvid/gaussians.h"
 #include "gaussvid/splat.h"
 
+/* The stages of a render and its backward, in the order they run. */
+enum {
+    GV_STAGE_PROJECT,      /* 3D -> 2D Gaussians, culling */
+    GV_STAGE_BIN,          /* visible list, depth sort, tile lists */
+    GV_STAGE_SH,           /* colours of the visible Gaussians */
+    GV_STAGE_OPACITY,      /* sigmoid of the visible opacities */
+    GV_STAGE_RASTER,       /* rasteriser forward */
+    GV_STAGE_RASTER_BWD,   /* rasteriser backward, per-Gaussian sums */
+    GV_STAGE_GRADS,        /* opacity gradient through the sigmoid, densify statistic */
+    GV_STAGE_PROJECT_BWD,  /* projection backward */
+    GV_STAGE_SH_BWD,       /* SH backward */
+    GV_STAGES
+};
+extern const char *const gv_stage_names[GV_STAGES];
+
 typedef struct {
     /* of the last forward */
     int n, sh_degree, active_degree;
@@ -26,6 +41,9 @@ typedef struct {
     float *final_T;         /* transmittance left after the last Gaussian (1 - alpha) */
     int *n_contrib;
     int pixel_capacity;
+    /* wall and process CPU seconds of each stage, summed over every call since r was
+     * zeroed (`gaussvid bench raster` reads them; the clocks cost about a microsecond) */
+    double stage_seconds[GV_STAGES], stage_cpu_seconds[GV_STAGES];
 } gv_splat_renderer;
 
 /* Renders g (SH up to active_degree) from view over background bg into image (float HWC,

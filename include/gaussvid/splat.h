@@ -102,7 +102,8 @@ typedef struct {
     uint32_t *sort_keys;    /* depth sort scratch, 2 per Gaussian */
     int *sort_tmp;
     int *tile_counts;       /* per thread and tile: scratch of the parallel dealing */
-    int cap_gaussians, cap_entries, cap_tiles, cap_counts; /* capacities of the above */
+    int *thread_counts;     /* per thread, 256: scratch of the parallel listing and sort */
+    int cap_gaussians, cap_entries, cap_tiles, cap_counts, cap_thread_counts; /* capacities */
 } gv_splat_tiles;
 
 /* Tile rectangle [rect[0], rect[2]) x [rect[1], rect[3]) of a Gaussian (getRect, with the

@@ -50,6 +50,7 @@ static int cmd_bench_all(int argc, char **argv)
 static const gv_subcommand bench_commands[] = {
     {"nn", cmd_bench_nn, "tensor engine: linear vs sgemm, attention, transformer block"},
     {"splat", gv_bench_splat_command, "sparse-view 3DGS training: phases, kernel stages, quality"},
+    {"raster", gv_bench_raster_command, "3DGS kernels: CPU time per stage of an iteration on a fixed model"},
     {"model", gv_bench_model_command, "restoration network: fine-tuning step per variant, camera cache, VAE"},
     {"train", gv_bench_train_command, "training throughput: pretraining and fine-tuning clips/s, peak memory"},
     {"import", gv_bench_import_command, "model import on a stand-in Wan2.1-VACE release of the real shapes"},

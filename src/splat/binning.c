@@ -100,32 +100,89 @@ static int ensure_entries(gv_splat_tiles *t, long n_entries)
     return 0;
 }
 
-/* Stable LSD radix sort of t->visible by depth into t->depth_order. */
+/* Per-thread scratch of the parallel passes: RADIX counters per thread. */
+enum { RADIX = 256 };
+static int ensure_thread_scratch(gv_splat_tiles *t, int threads)
+{
+    if (threads * RADIX <= t->cap_thread_counts) return 0;
+    if (grow((void **)&t->thread_counts, (size_t)threads * RADIX * sizeof(int)))
+        return gv_fail("splat: out of memory for %d threads' counters", threads);
+    t->cap_thread_counts = threads * RADIX;
+    return 0;
+}
+
+/* The contiguous range [*k0, *k1) of n items that thread `me` of `n_threads` takes. */
+static void thread_range(int n, int me, int n_threads, int *k0, int *k1)
+{
+    *k0 = (int)((long)n * me / n_threads), *k1 = (int)((long)n * (me + 1) / n_threads);
+}
+
+/* t->visible = the Gaussians with radius > 0, ascending. Each thread counts its range, then
+ * writes after the threads before it: the same list for any thread count. Must be called
+ * by every thread of a parallel region. */
+static void list_visible(gv_splat_tiles *t, int n, const int *radii)
+{
+    int me = omp_get_thread_num(), n_threads = omp_get_num_threads(), i0, i1, count = 0;
+    thread_range(n, me, n_threads, &i0, &i1);
+    for (int i = i0; i < i1; i++) count += radii[i] > 0;
+    t->thread_counts[me] = count;
+#pragma omp barrier
+    int pos = 0;
+    for (int th = 0; th < me; th++) pos += t->thread_counts[th];
+    for (int i = i0; i < i1; i++)
+        if (radii[i] > 0) t->visible[pos++] = i;
+    if (me == n_threads - 1) t->n_visible = pos;
+#pragma omp barrier
+}
+
+/* Stable LSD radix sort of t->visible by depth into t->depth_order, 8 bits per pass. Each
+ * pass counts the digits of each thread's contiguous range and scatters the range after
+ * the same digits of the threads before it, which is the order of the one-thread sort: the
+ * result does not depend on the thread count. Must be called by every thread of a parallel
+ * region, after list_visible. */
 static void sort_by_depth(gv_splat_tiles *t, const float *depths)
 {
-    int n = t->n_visible;
+    int n = t->n_visible, me = omp_get_thread_num(), n_threads = omp_get_num_threads(), k0, k1;
+    thread_range(n, me, n_threads, &k0, &k1);
     uint32_t *keys = t->sort_keys, *keys2 = t->sort_keys + t->cap_gaussians;
     int *vals = t->depth_order, *vals2 = t->sort_tmp;
-    for (int k = 0; k < n; k++) {
+    for (int k = k0; k < k1; k++) {
         uint32_t bits;
         memcpy(&bits, &depths[t->visible[k]], sizeof bits);
         keys[k] = bits;
         vals[k] = t->visible[k];
     }
+    int *count = t->thread_counts + (size_t)me * RADIX;
     for (int shift = 0; shift < 32; shift += 8) {
-        int count[257] = {0};
-        for (int k = 0; k < n; k++) count[((keys[k] >> shift) & 255) + 1]++;
-        if (count[((keys[0] >> shift) & 255) + 1] == n) continue; /* one bucket: no-op */
-        for (int b = 0; b < 256; b++) count[b + 1] += count[b];
-        for (int k = 0; k < n; k++) {
-            int dst = count[(keys[k] >> shift) & 255]++;
+        memset(count, 0, RADIX * sizeof(int));
+        for (int k = k0; k < k1; k++) count[(keys[k] >> shift) & (RADIX - 1)]++;
+#pragma omp barrier
+        /* Every thread turns the counts into its own start positions, reading all of them
+         * (the same sums in every thread), so no thread has to wait for another to write. */
+        int start[RADIX], pos = 0, buckets = 0;
+        for (int b = 0; b < RADIX; b++) {
+            int in_bucket = 0;
+            for (int th = 0; th < n_threads; th++) {
+                int c = t->thread_counts[(size_t)th * RADIX + b];
+                if (th == me) start[b] = pos + in_bucket;
+                in_bucket += c;
+            }
+            pos += in_bucket;
+            buckets += in_bucket > 0;
+        }
+#pragma omp barrier
+        if (buckets <= 1) continue; /* one digit for all: the pass would keep the order */
+        for (int k = k0; k < k1; k++) {
+            int dst = start[(keys[k] >> shift) & (RADIX - 1)]++;
             keys2[dst] = keys[k];
             vals2[dst] = vals[k];
         }
         uint32_t *kt = keys; keys = keys2; keys2 = kt;
         int *vt = vals; vals = vals2; vals2 = vt;
+#pragma omp barrier
     }
-    if (vals != t->depth_order) memcpy(t->depth_order, vals, (size_t)n * sizeof(int));
+    if (vals != t->depth_order) memcpy(t->depth_order + k0, vals + k0, (size_t)(k1 - k0) * sizeof(int));
+#pragma omp barrier
 }
 
 int gv_splat_tiles_build(gv_splat_tiles *t, int n, int width, int height,
@@ -136,10 +193,14 @@ int gv_splat_tiles_build(gv_splat_tiles *t, int n, int width, int height,
     int n_tiles = t->tiles_x * t->tiles_y;
     if (ensure_gaussians(t, n) || ensure_tiles(t, n_tiles)) return -1;
 
-    t->n_visible = 0;
-    for (int i = 0; i < n; i++)
-        if (radii[i] > 0) t->visible[t->n_visible++] = i;
-    if (t->n_visible > 0) sort_by_depth(t, depths);
+    int max_threads = omp_get_max_threads();
+    if (ensure_thread_scratch(t, max_threads)) return -1;
+    /* a dozen barriers: below some ten thousand Gaussians one thread is faster */
+#pragma omp parallel num_threads(max_threads) if (n >= 16384)
+    {
+        list_visible(t, n, radii);
+        sort_by_depth(t, depths);
+    }
 
     /* Tile rectangle and entry count of every rank. */
     int nv = t->n_visible;
@@ -157,7 +218,6 @@ int gv_splat_tiles_build(gv_splat_tiles *t, int n, int width, int height,
         if (total > INT_MAX / 12) return gv_fail("splat: %ld tile entries are too many", total);
         t->gauss_offsets[k + 1] = (int)total;
     }
-    int max_threads = omp_get_max_threads();
     if (ensure_entries(t, total) || ensure_counts(t, (long)max_threads * n_tiles)) return -1;
     t->n_entries = (int)total;
 
@@ -218,5 +278,6 @@ void gv_splat_tiles_free(gv_splat_tiles *t)
     free(t->tile_counts);
     free(t->sort_keys);
     free(t->sort_tmp);
+    free(t->thread_counts);
     memset(t, 0, sizeof *t);
 }

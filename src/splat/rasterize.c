@@ -45,14 +45,18 @@ static void pack_splats(const gv_splat_tiles *t, const float *means2d, const flo
         s[2] = A, s[3] = B, s[4] = C, s[5] = o;
         s[6] = colors[3 * g], s[7] = colors[3 * g + 1], s[8] = colors[3 * g + 2];
         float det = A * C - B * B;
-        s[11] = 0;
+        /* alpha = o exp(power) >= 1/255 needs power >= -ln(255 o); with a margin far above
+         * the rounding of the exponential and of this logf, a group of pixels whose powers
+         * are all below s[11] has no pixel the exact test would blend, so it is skipped. */
+        float log_o = o >= GV_SPLAT_ALPHA_MIN ? logf(255.0f * o) : 0;
+        s[11] = -log_o - 1e-3f;
         if (!(o >= GV_SPLAT_ALPHA_MIN)) {
             /* o exp(power) <= o: below 1/255 it is skipped everywhere (exactly, in float) */
             s[9] = s[10] = -1;
         } else if (!(det > 0) || !(A > 0)) {
             s[9] = s[10] = INFINITY; /* degenerate in float: the whole rectangle */
         } else {
-            float level = 2.0f * (logf(255.0f * o) + 0.1f);
+            float level = 2.0f * (log_o + 0.1f);
             s[9] = sqrtf(level * C / det) + 0.01f;
             s[10] = sqrtf(level * A / det) + 0.01f;
         }
@@ -62,6 +66,7 @@ static void pack_splats(const gv_splat_tiles *t, const float *means2d, const flo
 /* One Gaussian as a tile sees it. */
 typedef struct {
     float mx, my, A, B, C, o, col[3];
+    float power_min; /* below this power alpha < 1/255 for certain */
     int x0, x1, y0, y1; /* pixel box inside the tile, inclusive; x0 is a multiple of 8 */
 } splat2d;
 
@@ -100,6 +105,7 @@ SIMD8_INLINE int load_splat(splat2d *s, const float *p, int px0, int py0, int tw
     s->x0 &= ~7; /* whole groups of eight pixels */
     s->mx = p[0], s->my = p[1], s->A = p[2], s->B = p[3], s->C = p[4], s->o = p[5];
     s->col[0] = p[6], s->col[1] = p[7], s->col[2] = p[8];
+    s->power_min = p[11];
     return 1;
 }
 
@@ -143,6 +149,7 @@ SIMD8_INLINE int blend_splat(blend_state *st, const splat2d *s, int j, int px0, 
             i8 live = i8_load(st->live + p);
             f8 dx = s->mx - (centres + (float)x), G; /* exact centres: one rounding */
             f8 power = splat_power(s, dx, dy, cdd);
+            if (!i8_any(live & (power >= s->power_min))) continue; /* nothing to blend */
             f8 alpha = splat_alpha(s, power, &G);
             i8 ok = live & (power <= 0.0f) & (alpha >= GV_SPLAT_ALPHA_MIN);
             f8 T = f8_load(st->T + p), test_T = T * (1.0f - alpha);
@@ -163,7 +170,7 @@ SIMD8_INLINE int blend_splat(blend_state *st, const splat2d *s, int j, int px0, 
     return stopped;
 }
 
-SIMD8_CLONES static void render_tile(const gv_splat_tiles *t, int tile, int width, int height,
+RASTER_CLONES static void render_tile(const gv_splat_tiles *t, int tile, int width, int height,
                         const float bg[3], float *image, float *final_T, int *n_contrib)
 {
     int px0 = (tile % t->tiles_x) * GV_SPLAT_TILE, py0 = (tile / t->tiles_x) * GV_SPLAT_TILE;
@@ -239,6 +246,7 @@ SIMD8_INLINE void entry_backward(tile_state *st, const splat2d *s, int j, int px
             i8 m = jv < i8_load(st->n_contrib + p); /* this pixel blended entry j */
             f8 dx = s->mx - (centres + (float)x), G; /* exact centres: one rounding */
             f8 power = splat_power(s, dx, dy, cdd);
+            if (!i8_any(m & (power >= s->power_min))) continue; /* not blended here */
             f8 alpha = splat_alpha(s, power, &G);
             m &= (power <= 0.0f) & (alpha >= GV_SPLAT_ALPHA_MIN);
             if (!i8_any(m)) continue;
@@ -276,7 +284,7 @@ SIMD8_INLINE void entry_backward(tile_state *st, const splat2d *s, int j, int px
     row[8] = f8_sum(e_o);
 }
 
-SIMD8_CLONES static void backward_tile(gv_splat_tiles *t, int tile, int width, int height,
+RASTER_CLONES static void backward_tile(gv_splat_tiles *t, int tile, int width, int height,
                                        const float bg[3], const float *final_T,
                                        const int *n_contrib, const float *d_image)
 {

@@ -101,7 +101,7 @@ SIMD8_INLINE int blend_depth(depth_state *st, const depth_splat *s, int px0, int
     return stopped;
 }
 
-SIMD8_CLONES static void depth_tile(const gv_splat_tiles *t, int tile, int width, int height,
+RASTER_CLONES static void depth_tile(const gv_splat_tiles *t, int tile, int width, int height,
                                     const float *means2d, const float *conics,
                                     const float *opacities, const float *depths, float *depth,
                                     float *opacity)

@@ -7,6 +7,18 @@
 #include "gaussvid/core.h"
 #include "gaussvid/render.h"
 
+const char *const gv_stage_names[GV_STAGES] = {
+    "projection", "binning+sort", "SH", "opacity", "raster fwd", "raster bwd", "grads",
+    "projection bwd", "SH bwd"};
+
+/* Adds the time since *wall, *cpu to the stage and restarts both clocks. */
+static void stage_done(gv_splat_renderer *r, int stage, double *wall, double *cpu)
+{
+    double w = gv_now(), c = gv_cpu_now();
+    r->stage_seconds[stage] += w - *wall, r->stage_cpu_seconds[stage] += c - *cpu;
+    *wall = w, *cpu = c;
+}
+
 static int grow(void **array, size_t bytes)
 {
     void *p = realloc(*array, bytes > 0 ? bytes : 1);
@@ -55,22 +67,28 @@ int gv_splat_render_forward(gv_splat_renderer *r, const gv_gaussians *g,
     r->view = *view;
     for (int c = 0; c < 3; c++) r->bg[c] = bg[c];
 
+    double wall = gv_now(), cpu = gv_cpu_now();
     gv_splat_project_forward(g->n, g->means, g->scales, g->rotations, view, r->means2d,
                              r->conics, r->depths, r->radii);
+    stage_done(r, GV_STAGE_PROJECT, &wall, &cpu);
     if (gv_splat_tiles_build(&r->tiles, g->n, view->width, view->height, r->means2d, r->radii,
                              r->depths))
         return -1;
+    stage_done(r, GV_STAGE_BIN, &wall, &cpu);
     int nv = r->tiles.n_visible;
     const int *vis = r->tiles.visible;
     gv_splat_sh_forward(nv, vis, g->sh_degree, active_degree, g->sh, g->means, view->campos,
                         r->colors, r->clamped);
+    stage_done(r, GV_STAGE_SH, &wall, &cpu);
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < nv; k++) {
         int i = vis[k];
         r->opacities[i] = 1.0f / (1.0f + expf(-g->opacities[i])); /* sigmoid */
     }
+    stage_done(r, GV_STAGE_OPACITY, &wall, &cpu);
     gv_splat_rasterize_forward(&r->tiles, view->width, view->height, r->means2d, r->conics,
                                r->colors, r->opacities, bg, image, r->final_T, r->n_contrib);
+    stage_done(r, GV_STAGE_RASTER, &wall, &cpu);
     return 0;
 }
 
@@ -84,9 +102,11 @@ int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
         return gv_fail("render: gradient holds %d Gaussians of SH degree %d, need %d of degree "
                        "%d", grad->capacity, grad->sh_degree, g->n, g->sh_degree);
     const gv_splat_view *view = &r->view;
+    double wall = gv_now(), cpu = gv_cpu_now();
     gv_splat_rasterize_backward(&r->tiles, view->width, view->height, r->bg, r->final_T,
                                 r->n_contrib, d_image, r->d_means2d, r->d_conics, r->d_colors,
                                 r->d_opacities);
+    stage_done(r, GV_STAGE_RASTER_BWD, &wall, &cpu);
     int nv = r->tiles.n_visible;
     const int *vis = r->tiles.visible;
     float half_w = 0.5f * view->width, half_h = 0.5f * view->height;
@@ -101,10 +121,13 @@ int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
             densify_grad[i] = sqrtf(gx * gx + gy * gy);
         }
     }
+    stage_done(r, GV_STAGE_GRADS, &wall, &cpu);
     gv_splat_project_backward(nv, vis, g->means, g->scales, g->rotations, view, r->d_means2d,
                               r->d_conics, grad->means, grad->scales, grad->rotations);
+    stage_done(r, GV_STAGE_PROJECT_BWD, &wall, &cpu);
     gv_splat_sh_backward(nv, vis, g->sh_degree, r->active_degree, g->sh, g->means,
                          view->campos, r->clamped, r->d_colors, grad->sh, grad->means);
+    stage_done(r, GV_STAGE_SH_BWD, &wall, &cpu);
     return 0;
 }
 
