@@ -16,8 +16,9 @@ data    : splat       : dataset internal_pairs
 train   : model data  : train condition checkpoint vae_train model_import scene_adapt
 restore : train       : restore adapt
 eval    : restore     : eval lpips
+report  : scene       : report
 bench   : restore     : -
-cli     : eval bench  : -
+cli     : eval report bench : -
 '
 cd "${1:?usage: bash tests/layers.sh SOURCE_DIR}" || exit 1
 declare -A below owner allowed
