@@ -94,17 +94,18 @@ slider.addEventListener("input", () => {
   state.s = Number(slider.value);
 });
 
+// A drag starts on the canvas and is followed on the window, so it goes on outside the canvas.
 let drag = null;
 canvas.addEventListener("pointerdown", (e) => {
   drag = { x: e.clientX, y: e.clientY, yaw: state.yaw, pitch: state.pitch };
-  canvas.setPointerCapture(e.pointerId);
+  e.preventDefault();
 });
-canvas.addEventListener("pointermove", (e) => {
+window.addEventListener("pointermove", (e) => {
   if (!drag) return;
   state.yaw = drag.yaw - (e.clientX - drag.x) * LOOK_RADIANS_PER_PIXEL;
   state.pitch = Math.max(-1.4, Math.min(1.4, drag.pitch - (e.clientY - drag.y) * LOOK_RADIANS_PER_PIXEL));
 });
-canvas.addEventListener("pointerup", () => (drag = null));
+window.addEventListener("pointerup", () => (drag = null));
 canvas.addEventListener("dblclick", () => {
   state.yaw = 0;
   state.pitch = 0;
