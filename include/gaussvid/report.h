@@ -11,12 +11,13 @@
 
 #include "gaussvid/image.h"
 
-/* Reads DIR/metrics.json (docs/REPORT.md has its schema) and writes DIR/report.html and, for
- * every run whose model exists, DIR/nN/viewer.html, each atomically. The pipeline's last
+/* Reads DIR/metrics.json (docs/REPORT.md has its schema) and writes, each atomically, for
+ * every run whose model exists DIR/nN/viewer.html, then DIR/report.html. The pipeline's last
  * stage; `gaussvid report DIR` calls it again. Fails with one line naming the file and, for
- * metrics.json, the key that is missing or malformed. */
+ * metrics.json, the key that is missing or malformed, before writing anything. Without the
+ * viewer's JavaScript in the build it warns and writes the report alone. */
 int gv_report_write(const char *dir);
-/* Only DIR/report.html. */
+/* Only DIR/report.html (no viewers, no links to them). */
 int gv_report_write_html(const char *dir);
 
 /* A viewer page for one model: the .splat file's bytes (base64), the scene's cameras as the

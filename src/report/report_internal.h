@@ -92,6 +92,13 @@ int report_pick_frames(const char *dir, const report_run *run, int picked[2], co
 /* One strip: the frame's images and error maps, embedded as PNG data URIs. */
 int report_strip(report_text *t, const char *dir, const report_run *run, int index, const char *label);
 
+/* The whole report.html in memory; with viewers, each run whose model exists links to its
+ * nN/viewer.html (report_page.c). */
+int report_build_page(report_text *t, const char *dir, const report_metrics *m, int viewers);
+/* The model a run's viewer shows: nN/refined.splat, else nN/sparse.splat; 0 when neither
+ * exists. which is "refined" or "sparse". */
+int report_run_model(const char *dir, const report_run *run, char *path, size_t size, const char **which);
+
 /* An image's pixels as an embedded PNG: <img src="data:image/png;base64,..." ...>. */
 int report_embed_image(report_text *t, const gv_image *img, const char *alt);
 /* Reads an image named in metrics.json (relative to dir unless absolute) as RGB. */

@@ -72,7 +72,22 @@ static void link_if_present(report_text *t, const char *dir, const report_run *r
     text_printf(t, " <a href=\"%s\">%s</a>", rel, what);
 }
 
-static int run_section(report_text *t, const char *dir, const report_metrics *m, const report_run *run)
+int report_run_model(const char *dir, const report_run *run, char *path, size_t size, const char **which)
+{
+    static const char *const models[2] = {"refined", "sparse"};
+    for (int k = 0; k < 2; k++) {
+        char rel[64];
+        snprintf(rel, sizeof rel, "n%d/%s.splat", run->interval, models[k]);
+        if (gv_path_join(path, size, dir, rel) != 0) return 0;
+        if (gv_file_exists(path)) {
+            *which = models[k];
+            return 1;
+        }
+    }
+    return 0;
+}
+
+static int run_section(report_text *t, const char *dir, const report_run *run, int viewers)
 {
     text_printf(t, "<section class=\"run\" id=\"n%d\">\n<h2>n = %d</h2>\n<p>", run->interval, run->interval);
     text_printf(t, "%d training views (every %d-th frame); %d %s frames", run->n_train, run->interval, run->n_frames,
@@ -80,7 +95,10 @@ static int run_section(report_text *t, const char *dir, const report_metrics *m,
     if (run->gaussians[0] >= 0) text_printf(t, "; %ld Gaussians sparse", run->gaussians[0]);
     if (run->gaussians[1] >= 0) text_printf(t, ", %ld refined", run->gaussians[1]);
     text_append(t, ".");
-    link_if_present(t, dir, run, "viewer.html", "Open the model in the viewer.");
+    char model[8192];
+    const char *which;
+    if (viewers && report_run_model(dir, run, model, sizeof model, &which))
+        text_printf(t, " <a href=\"n%d/viewer.html\">Open the %s model in the viewer.</a>", run->interval, which);
     link_if_present(t, dir, run, "flythrough.mp4", "Fly-through video.");
     text_append(t, "</p>\n");
     if (run->smooth)
@@ -98,7 +116,6 @@ static int run_section(report_text *t, const char *dir, const report_metrics *m,
             if ((k == 0 || picked[1] != picked[0]) && report_strip(t, dir, run, picked[k], labels[k]) != 0) return -1;
     }
     timings(t, run);
-    (void)m;
     text_append(t, "</section>\n");
     return 0;
 }
@@ -121,7 +138,7 @@ static void colour_bar(report_text *t)
     text_append(t, "</svg>\n");
 }
 
-static int build_page(report_text *t, const char *dir, const report_metrics *m)
+int report_build_page(report_text *t, const char *dir, const report_metrics *m, int viewers)
 {
     text_append(t, "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>gaussvid report: ");
     text_escaped(t, m->scene);
@@ -137,27 +154,10 @@ static int build_page(report_text *t, const char *dir, const report_metrics *m)
                    "&Delta; is the change against the sparse model (green better, red worse).</p>\n");
     report_table(t, m);
     for (int i = 0; i < m->n_runs; i++)
-        if (run_section(t, dir, m, &m->runs[i]) != 0) return -1;
+        if (run_section(t, dir, &m->runs[i], viewers) != 0) return -1;
     text_append(t, "<h2>Legend</h2>\n");
     colour_bar(t);
     text_append(t, "<p class=\"note\">Written by gaussvid report from metrics.json (docs/REPORT.md).</p>\n</body>\n</html>\n");
     return 0;
 }
 
-int gv_report_write_html(const char *dir)
-{
-    char metrics_path[8192], out[8192];
-    if (gv_path_join(metrics_path, sizeof metrics_path, dir, "metrics.json") != 0 ||
-        gv_path_join(out, sizeof out, dir, "report.html") != 0)
-        return -1;
-    if (!gv_dir_exists(dir)) return gv_fail("%s: no such folder", dir);
-    if (!gv_file_exists(metrics_path)) return gv_fail("%s: missing (not a folder written by gaussvid reconstruct?)", metrics_path);
-    report_metrics m;
-    if (report_metrics_read(metrics_path, &m) != 0) return -1;
-    report_text t = {0};
-    int rc = build_page(&t, dir, &m);
-    if (rc == 0) rc = text_write_atomic(&t, out);
-    text_free(&t);
-    report_metrics_free(&m);
-    return rc;
-}
