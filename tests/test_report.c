@@ -62,7 +62,12 @@ static const char METRICS[] =
     "   \"means\": {\"sparse\": {\"psnr\": 27.041152263004115, \"ssim\": 0.89, \"lpips\": 0.125, \"frames\": 3},\n"
     "             \"restored\": {\"psnr\": 26.916666666666668, \"ssim\": 0.8966666666666666, \"lpips\": 0.1171875, \"frames\": 3},\n"
     "             \"refined\": {\"psnr\": 26.625, \"ssim\": 0.89, \"lpips\": null, \"frames\": 2}},\n"
-    "   \"stages\": [{\"name\": \"train\", \"seconds\": 12.5}, {\"name\": \"restore\", \"seconds\": 3.25}]},\n"
+    "   \"all_held_out\": {\"sparse\": {\"psnr\": 26.5, \"ssim\": 0.875, \"lpips\": null, \"frames\": 4},\n"
+    "                    \"refined\": {\"psnr\": 26.0625, \"ssim\": 0.88, \"lpips\": null, \"frames\": 4}},\n"
+    "   \"restorer\": {\"checkpoint\": \"n6/restorer.safetensors\", \"kind\": \"scene\", \"gate\": \"closed\"},\n"
+    "   \"inputs\": {\"iters\": 3000, \"refine_weight\": 0.3, \"adapt\": true, \"lpips\": null},\n"
+    "   \"stages\": [{\"name\": \"train\", \"seconds\": 12.5, \"cpu_seconds\": 20.25, \"summary\": \"1234 Gaussians <fast>\"},\n"
+    "              {\"name\": \"restore\", \"seconds\": 3.25}]},\n"
     "  {\"interval\": 4, \"train_frames\": [0, 4], \"path\": \"smooth\",\n"
     "   \"frames\": [{\"frame\": 0, \"images\": {\"render\": \"n4/r0.png\", \"restored\": \"n4/s0.png\", \"refined\": \"n4/f0.png\", \"ground_truth\": null},\n"
     "                \"sparse\": null, \"restored\": null, \"refined\": null}],\n"
@@ -106,17 +111,19 @@ static int attribute(const char *tag, const char *name, char *out, size_t size)
     return 0;
 }
 
-/* The number a table key names in metrics.json: "n6.restored.psnr" or "n6.refined.ssim_change". */
+/* The number a table key names in metrics.json: "n6.restored.psnr", "n6.refined.ssim_change"
+ * (the means) or "n6.all_held_out.refined.psnr" (every held-out view). */
 static int expected_value(const cJSON *root, const char *key, double *out)
 {
     int n;
-    char model[32], metric[32];
-    if (sscanf(key, "n%d.%31[a-z].%31[a-z_]", &n, model, metric) != 3) return -1;
+    char group[32] = "means", model[32], metric[32];
+    if (sscanf(key, "n%d.all_held_out.%31[a-z].%31[a-z_]", &n, model, metric) == 3) strcpy(group, "all_held_out");
+    else if (sscanf(key, "n%d.%31[a-z].%31[a-z_]", &n, model, metric) != 3) return -1;
     const cJSON *run = NULL, *r;
     cJSON_ArrayForEach(r, cJSON_GetObjectItem(root, "runs"))
         if (cJSON_GetObjectItem(r, "interval")->valueint == n) run = r;
     if (!run) return -1;
-    const cJSON *means = cJSON_GetObjectItem(run, "means");
+    const cJSON *means = cJSON_GetObjectItem(run, group);
     char *change = strstr(metric, "_change");
     if (change) *change = '\0';
     const cJSON *v = cJSON_GetObjectItem(cJSON_GetObjectItem(means, model), metric);
@@ -152,8 +159,10 @@ static void test_table(const char *html, const cJSON *root)
         cells++;
     }
     /* n = 6: PSNR, SSIM, LPIPS of three models (refined has no LPIPS) and the changes of the
-     * two others (restored's LPIPS change; refined's has no value): 3 + 3 + 2 + 2 + 2 + 1 */
-    CHECK(cells == 13);
+     * two others (restored's LPIPS change; refined's has no value): 3 + 3 + 2 + 2 + 2 + 1;
+     * all held-out views: sparse's PSNR and SSIM, refined's with their changes: 2 + 4 */
+    CHECK(cells == 19);
+    CHECK(strstr(html, "data-key=\"n6.all_held_out.refined.psnr_change\" data-value=\"-0.4375\">-0.44<") != NULL);
     CHECK(strstr(html, "no ground truth, no metrics") != NULL); /* the smooth run's row */
     CHECK(strstr(html, "data-key=\"n6.restored.psnr_change\" data-value=\"-0.12448559633744694\"") != NULL);
 }
@@ -297,6 +306,12 @@ static void test_self_contained(const char *html)
     CHECK(strstr(html, "hand&lt;made&gt;") != NULL && strstr(html, "hand<made>") == NULL);
     CHECK(strstr(html, "open: the scene's held-back pairs said restoring helps") != NULL);
     CHECK(strstr(html, "data-value=\"12.5\">12.5</td>") != NULL); /* a stage's time */
+    CHECK(strstr(html, "data-value=\"20.25\">20.2</td>") != NULL); /* its CPU time (%.1f: half to even) */
+    CHECK(strstr(html, "1234 Gaussians &lt;fast&gt;") != NULL);     /* its summary */
+    /* the run's own restorer (another than the folder's) and its options */
+    CHECK(strstr(html, "Restorer of this run") != NULL && strstr(html, "n6/restorer.safetensors") != NULL);
+    CHECK(strstr(html, "closed: the scene's held-back pairs said restoring hurts") != NULL);
+    CHECK(strstr(html, "Options: iters 3000, refine_weight 0.3, adapt yes</p>") != NULL);
 }
 
 /* Replaces the first `from` in the good metrics.json by `to`, writes it and expects a failure
@@ -325,7 +340,10 @@ static void test_bad_input(const char *before)
     expect_bad("\"width\": 8", "\"width\": -8", "metrics.json: width: -8 is outside", before);
     expect_bad("\"render\": \"n6/r2.png\"", "\"render\": null", "runs[0].frames[1].images.render: expected a string, found null", before);
     expect_bad("\"ssim\": 0.89, \"lpips\": 0.125", "\"ssim\": 0.89, \"lpips\": \"low\"", "runs[0].means.sparse.lpips: expected a number, found a string", before);
-    expect_bad("{\"name\": \"train\", \"seconds\": 12.5}", "{\"name\": \"train\"}", "runs[0].stages[0].seconds: missing", before);
+    expect_bad("\"name\": \"train\", \"seconds\": 12.5,", "\"name\": \"train\",", "runs[0].stages[0].seconds: missing", before);
+    expect_bad("\"cpu_seconds\": 20.25", "\"cpu_seconds\": \"20\"", "runs[0].stages[0].cpu_seconds: expected a number", before);
+    expect_bad("\"refined\": {\"psnr\": 26.0625", "\"refined\": {\"PSNR\": 26.0625", "runs[0].all_held_out.refined.psnr: missing", before);
+    expect_bad("\"gate\": \"closed\"", "\"gate\": 0", "runs[0].restorer.gate: expected a string or null, found a number", before);
     expect_bad("\"train_frames\": [0, 6]", "\"train_frames\": [0, -6]", "runs[0].train_frames[1]: expected a frame index", before);
     expect_bad(" \"runs\": [", " \"runs\": {", "not valid JSON", before);
     expect_bad("\"restored\": \"n6/s1.png\"", "\"restored\": \"/abs/s1.png\"", "images.restored: expected a path relative to the folder", before);

@@ -220,6 +220,11 @@ static int read_stages(reader *r, const cJSON *run, report_run *out)
         int rc = cJSON_IsObject(s) ? 0 : gv_fail("%s: %s: expected an object, found %s", r->path, r->where, gv_json_type(s));
         if (rc == 0) rc = read_string(r, s, "name", 0, st->name, sizeof st->name);
         if (rc == 0) rc = read_number(r, s, "seconds", 0, 1e9, 0, &st->seconds);
+        st->cpu_seconds = -1;
+        if (rc == 0 && member(r, s, "cpu_seconds", 0) && !cJSON_IsNull(member(r, s, "cpu_seconds", 0)))
+            rc = read_number(r, s, "cpu_seconds", 0, 1e9, 0, &st->cpu_seconds);
+        if (rc == 0 && member(r, s, "summary", 0))
+            rc = read_string(r, s, "summary", 1, st->summary, sizeof st->summary);
         leave(r, at);
         if (rc != 0) return -1;
     }
@@ -248,6 +253,42 @@ static int read_gaussians(reader *r, const cJSON *run, report_run *out)
     return rc;
 }
 
+/* "restorer": {"checkpoint", "kind", "gate"} or null / absent (nothing restored yet). */
+static int read_restorer(reader *r, const cJSON *o, report_restorer *out)
+{
+    int bad;
+    const cJSON *restorer = object_or_null(r, o, "restorer", 0, &bad);
+    if (bad || !restorer) return bad ? -1 : 0;
+    size_t at = strlen(r->where);
+    enter(r, "%srestorer", at ? "." : "");
+    int rc = read_string(r, restorer, "checkpoint", 1, out->checkpoint, sizeof out->checkpoint);
+    if (rc == 0) rc = read_string(r, restorer, "kind", 1, out->kind, sizeof out->kind);
+    if (rc == 0) rc = read_string(r, restorer, "gate", 1, out->gate, sizeof out->gate);
+    leave(r, at);
+    out->present = rc == 0;
+    return rc;
+}
+
+/* "inputs": the options a run was made with, shown as they are: every number, string and
+ * boolean member as "key value", in the file's order. */
+static void read_inputs(const cJSON *run, char *out, size_t size)
+{
+    const cJSON *inputs = cJSON_GetObjectItemCaseSensitive(run, "inputs"), *v;
+    size_t used = 0;
+    out[0] = '\0';
+    if (!cJSON_IsObject(inputs)) return;
+    cJSON_ArrayForEach(v, inputs) {
+        char value[256];
+        if (cJSON_IsNumber(v)) snprintf(value, sizeof value, "%g", v->valuedouble);
+        else if (cJSON_IsString(v) && v->valuestring[0]) snprintf(value, sizeof value, "%s", v->valuestring);
+        else if (cJSON_IsBool(v)) snprintf(value, sizeof value, "%s", cJSON_IsTrue(v) ? "yes" : "no");
+        else continue;
+        int n = snprintf(out + used, size - used, "%s%s %s", used ? ", " : "", v->string, value);
+        if (n < 0 || (size_t)n >= size - used) break;
+        used += (size_t)n;
+    }
+}
+
 static int read_run(reader *r, const cJSON *run, report_run *out)
 {
     char path[16];
@@ -272,6 +313,20 @@ static int read_run(reader *r, const cJSON *run, report_run *out)
         if (rc != 0) return -1;
         out->has_means = 1;
     }
+    const cJSON *all = object_or_null(r, run, "all_held_out", 0, &bad);
+    if (bad) return -1;
+    if (all) {
+        size_t at = strlen(r->where);
+        enter(r, ".all_held_out");
+        int rc = 0;
+        for (int k = 0; k < N_MODELS && rc == 0; k++)
+            if (k != MODEL_RESTORED) rc = read_score(r, all, report_model_names[k], 1, &out->all_held_out[k]);
+        leave(r, at);
+        if (rc != 0) return -1;
+        out->has_all_held_out = 1;
+    }
+    if (read_restorer(r, run, &out->restorer) != 0) return -1;
+    read_inputs(run, out->inputs, sizeof out->inputs);
     return read_stages(r, run, out);
 }
 
@@ -286,17 +341,7 @@ static int read_document(reader *r, const cJSON *root, report_metrics *m)
     if (read_string(r, root, "scene_dir", 0, m->scene_dir, sizeof m->scene_dir) != 0) return -1;
     if (read_int(r, root, "width", 1, 1 << 16, &m->width) != 0) return -1;
     if (read_int(r, root, "height", 1, 1 << 16, &m->height) != 0) return -1;
-    int bad;
-    const cJSON *restorer = object_or_null(r, root, "restorer", 0, &bad);
-    if (bad) return -1;
-    if (restorer) {
-        enter(r, "restorer");
-        int rc = read_string(r, restorer, "checkpoint", 1, m->checkpoint, sizeof m->checkpoint);
-        if (rc == 0) rc = read_string(r, restorer, "kind", 1, m->kind, sizeof m->kind);
-        if (rc == 0) rc = read_string(r, restorer, "gate", 1, m->gate, sizeof m->gate);
-        leave(r, 0);
-        if (rc != 0) return -1;
-    }
+    if (read_restorer(r, root, &m->restorer) != 0) return -1;
     const cJSON *runs = member(r, root, "runs", 1);
     if (!runs) return -1;
     if (!cJSON_IsArray(runs)) return bad_key(r, "runs", "expected an array, found %s", gv_json_type(runs));

@@ -31,7 +31,16 @@ typedef struct {
 typedef struct {
     char name[64];
     double seconds;
+    double cpu_seconds;         /* -1 when not recorded */
+    char summary[512];          /* the stage's one-line summary, "" when not recorded */
 } report_stage;
+
+typedef struct {
+    int present;
+    char checkpoint[4096];
+    char kind[64];
+    char gate[64];              /* "" when null */
+} report_restorer;
 
 typedef struct {
     int interval;
@@ -43,6 +52,10 @@ typedef struct {
     report_frame *frames;
     int has_means;
     report_score means[N_MODELS];
+    int has_all_held_out;       /* "all_held_out": every held-out view, also those no clip restores */
+    report_score all_held_out[N_MODELS]; /* sparse and refined (restored is never present) */
+    report_restorer restorer;   /* what restored this run, when the run says */
+    char inputs[1024];          /* the run's options as "key value, ..." ("" when not recorded) */
     int n_stages;
     report_stage *stages;
 } report_run;
@@ -51,9 +64,7 @@ typedef struct {
     char scene[256];
     char scene_dir[4096];
     int width, height;
-    char checkpoint[4096];
-    char kind[64];
-    char gate[64];              /* "" when null */
+    report_restorer restorer;
     int n_runs;
     report_run *runs;
 } report_metrics;

@@ -20,47 +20,68 @@ static const char STYLE[] =
     ".caption{font-size:12px;color:#444;max-width:256px}figure{margin:12px 0}figcaption{font-weight:600}\n"
     ".bar{background:#3182bd;height:10px}\n";
 
-static void restorer_section(report_text *t, const report_metrics *m)
+/* The restorer's checkpoint, kind and gate, in words. */
+static void restorer_table(report_text *t, const report_restorer *r)
 {
-    text_append(t, "<h2>Restorer</h2>\n");
-    if (!m->checkpoint[0] && !m->kind[0]) {
-        text_append(t, "<p class=\"note\">No restorer recorded yet.</p>\n");
-        return;
-    }
-    text_append(t, "<table><tr><th>checkpoint</th><td>");
-    text_escaped(t, m->checkpoint[0] ? m->checkpoint : "(none)");
+    text_append(t, "<table class=\"restorer\"><tr><th>checkpoint</th><td>");
+    text_escaped(t, r->checkpoint[0] ? r->checkpoint : "(none)");
     text_append(t, "</td></tr>\n<tr><th>kind</th><td>");
-    text_escaped(t, m->kind[0] ? m->kind : "(unknown)");
-    text_append(t, !strcmp(m->kind, "scene") ? " (adapted to this scene from its own training views)"
-                   : !strcmp(m->kind, "cross-scene") ? " (trained on other scenes, used as released)" : "");
+    text_escaped(t, r->kind[0] ? r->kind : "(unknown)");
+    text_append(t, !strcmp(r->kind, "scene") ? " (adapted to this scene from its own training views)"
+                   : !strcmp(r->kind, "cross-scene") ? " (trained on other scenes, used as released)" : "");
     text_append(t, "</td></tr>\n<tr><th>gate</th><td>");
-    if (!m->gate[0]) text_append(t, "none (only a scene checkpoint has one)");
+    if (!r->gate[0]) text_append(t, "none (only a scene checkpoint has one)");
     else {
-        text_escaped(t, m->gate);
-        text_append(t, !strcmp(m->gate, "open") ? ": the scene's held-back pairs said restoring helps, so the restored frames are used"
-                       : !strcmp(m->gate, "closed") ? ": the scene's held-back pairs said restoring hurts, so the renders pass through unchanged"
+        text_escaped(t, r->gate);
+        text_append(t, !strcmp(r->gate, "open") ? ": the scene's held-back pairs said restoring helps, so the restored frames are used"
+                       : !strcmp(r->gate, "closed") ? ": the scene's held-back pairs said restoring hurts, so the renders pass through unchanged"
                        : "");
     }
     text_append(t, "</td></tr></table>\n");
 }
 
+static int same_restorer(const report_restorer *a, const report_restorer *b)
+{
+    return !strcmp(a->checkpoint, b->checkpoint) && !strcmp(a->kind, b->kind) && !strcmp(a->gate, b->gate);
+}
+
+static void restorer_section(report_text *t, const report_metrics *m)
+{
+    text_append(t, "<h2>Restorer</h2>\n");
+    if (m->restorer.present) restorer_table(t, &m->restorer);
+    else text_append(t, "<p class=\"note\">No restorer recorded for the whole folder; see each n.</p>\n");
+}
+
 static void timings(report_text *t, const report_run *run)
 {
     if (run->n_stages == 0) return;
-    double total = 0, longest = 0;
+    double total = 0, total_cpu = 0, longest = 0;
+    int with_cpu = 0;
     for (int i = 0; i < run->n_stages; i++) {
         total += run->stages[i].seconds;
+        if (run->stages[i].cpu_seconds >= 0) total_cpu += run->stages[i].cpu_seconds, with_cpu = 1;
         if (run->stages[i].seconds > longest) longest = run->stages[i].seconds;
     }
-    text_append(t, "<h3>Time per stage</h3>\n<table class=\"timings\">\n<tr><th>stage</th><th>seconds</th><th></th></tr>\n");
+    text_append(t, "<h3>Time per stage</h3>\n<table class=\"timings\">\n<tr><th>stage</th><th>seconds</th>");
+    if (with_cpu) text_append(t, "<th>CPU seconds</th>");
+    text_append(t, "<th></th><th>summary</th></tr>\n");
     for (int i = 0; i < run->n_stages; i++) {
         const report_stage *s = &run->stages[i];
         text_append(t, "<tr><td>");
         text_escaped(t, s->name);
-        text_printf(t, "</td><td class=\"num\" data-value=\"%.17g\">%.1f</td><td><div class=\"bar\" style=\"width:%.0fpx\"></div></td></tr>\n",
-                    s->seconds, s->seconds, longest > 0 ? 300 * s->seconds / longest : 0);
+        text_printf(t, "</td><td class=\"num\" data-value=\"%.17g\">%.1f</td>", s->seconds, s->seconds);
+        if (with_cpu && s->cpu_seconds >= 0)
+            text_printf(t, "<td class=\"num\" data-value=\"%.17g\">%.1f</td>", s->cpu_seconds, s->cpu_seconds);
+        else if (with_cpu)
+            text_append(t, "<td>&ndash;</td>");
+        text_printf(t, "<td><div class=\"bar\" style=\"width:%.0fpx\"></div></td><td class=\"note\">",
+                    longest > 0 ? 240 * s->seconds / longest : 0);
+        text_escaped(t, s->summary);
+        text_append(t, "</td></tr>\n");
     }
-    text_printf(t, "<tr><th>total</th><td class=\"num\">%.1f</td><td></td></tr>\n</table>\n", total);
+    text_printf(t, "<tr><th>total</th><td class=\"num\">%.1f</td>", total);
+    if (with_cpu) text_printf(t, "<td class=\"num\">%.1f</td>", total_cpu);
+    text_append(t, "<td></td><td class=\"note\">wall-clock seconds on a machine that may be shared; CPU seconds are the process's</td></tr>\n</table>\n");
 }
 
 /* A link to a file of the run's folder, when it exists. */
@@ -87,7 +108,7 @@ int report_run_model(const char *dir, const report_run *run, char *path, size_t 
     return 0;
 }
 
-static int run_section(report_text *t, const char *dir, const report_run *run, int viewers)
+static int run_section(report_text *t, const char *dir, const report_metrics *m, const report_run *run, int viewers)
 {
     text_printf(t, "<section class=\"run\" id=\"n%d\">\n<h2>n = %d</h2>\n<p>", run->interval, run->interval);
     text_printf(t, "%d training views (every %d-th frame); %d %s frames", run->n_train, run->interval, run->n_frames,
@@ -101,6 +122,15 @@ static int run_section(report_text *t, const char *dir, const report_run *run, i
         text_printf(t, " <a href=\"n%d/viewer.html\">Open the %s model in the viewer.</a>", run->interval, which);
     link_if_present(t, dir, run, "flythrough.mp4", "Fly-through video.");
     text_append(t, "</p>\n");
+    if (run->inputs[0]) {
+        text_append(t, "<p class=\"note\">Options: ");
+        text_escaped(t, run->inputs);
+        text_append(t, "</p>\n");
+    }
+    if (run->restorer.present && !(m->restorer.present && same_restorer(&run->restorer, &m->restorer))) {
+        text_append(t, "<h3>Restorer of this run</h3>\n");
+        restorer_table(t, &run->restorer);
+    }
     if (run->smooth)
         text_append(t, "<p class=\"note\">The frames follow a smooth path between the training views: there is no ground truth, so no PSNR.</p>\n");
     else report_plot(t, run);
@@ -154,7 +184,7 @@ int report_build_page(report_text *t, const char *dir, const report_metrics *m, 
                    "&Delta; is the change against the sparse model (green better, red worse).</p>\n");
     report_table(t, m);
     for (int i = 0; i < m->n_runs; i++)
-        if (run_section(t, dir, &m->runs[i], viewers) != 0) return -1;
+        if (run_section(t, dir, m, &m->runs[i], viewers) != 0) return -1;
     text_append(t, "<h2>Legend</h2>\n");
     colour_bar(t);
     text_append(t, "<p class=\"note\">Written by gaussvid report from metrics.json (docs/REPORT.md).</p>\n</body>\n</html>\n");
