@@ -15,15 +15,17 @@ if [ "${1:-}" = fuzz ]; then packages+=(clang libclang-rt-dev libomp-dev); fi
 # The viewer (docs/REPORT.md): three.js and Spark at the exact versions of
 # third_party/viewer/package-lock.json, installed with `npm ci` and bundled with esbuild into
 # third_party/viewer/dist/viewer.js, which the build copies into the program. Only here is the
-# network used; the build and the program never touch it. Redone when the lock file or the
-# viewer's code is newer than the bundle.
+# network used; the build and the program never touch it. npm ci again when the lock file
+# changed, the bundle again when the lock file or the viewer's code did.
 vendor_viewer() {
   local v=third_party/viewer
-  if [ -f $v/dist/viewer.js ] && [ $v/dist/viewer.js -nt $v/package-lock.json ] && [ $v/dist/viewer.js -nt $v/viewer.js ]; then
-    return 0
+  if [ ! -f $v/node_modules/.package-lock.json ] || [ $v/package-lock.json -nt $v/node_modules/.package-lock.json ]; then
+    echo "setup.sh: vendoring the viewer's JavaScript (npm ci in $v)"
+    (cd $v && npm ci --ignore-scripts --no-audit --no-fund --loglevel=error)
   fi
-  echo "setup.sh: vendoring the viewer's JavaScript (npm ci in $v)"
-  (cd $v && npm ci --ignore-scripts --no-audit --no-fund --loglevel=error && npm run --silent bundle -- --log-level=warning)
+  if [ ! -f $v/dist/viewer.js ] || [ $v/package-lock.json -nt $v/dist/viewer.js ] || [ $v/viewer.js -nt $v/dist/viewer.js ]; then
+    (cd $v && npm run --silent bundle -- --log-level=warning)
+  fi
 }
 
 missing=()

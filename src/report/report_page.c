@@ -154,16 +154,16 @@ static int run_section(report_text *t, const char *dir, const report_metrics *m,
 static void colour_bar(report_text *t)
 {
     text_append(t, "<p>Error maps: per pixel the mean over R, G, B of the absolute difference, in 8-bit levels:</p>\n"
-                   "<svg class=\"colour-bar\" width=\"420\" height=\"40\" viewBox=\"0 0 420 40\">"
+                   "<svg class=\"colour-bar\" width=\"460\" height=\"40\" viewBox=\"0 0 460 40\">"
                    "<defs><linearGradient id=\"error-colours\">");
     for (int k = 0; k <= 4; k++) {
         uint8_t rgb[3];
         gv_error_colour(GV_ERROR_MAP_FULL_SCALE * k / 4, rgb);
         text_printf(t, "<stop offset=\"%d%%\" stop-color=\"#%02x%02x%02x\"/>", 25 * k, rgb[0], rgb[1], rgb[2]);
     }
-    text_append(t, "</linearGradient></defs><rect x=\"10\" y=\"2\" width=\"400\" height=\"18\" fill=\"url(#error-colours)\" stroke=\"#999\"/>");
+    text_append(t, "</linearGradient></defs><rect x=\"20\" y=\"2\" width=\"400\" height=\"18\" fill=\"url(#error-colours)\" stroke=\"#999\"/>");
     for (int k = 0; k <= 4; k++)
-        text_printf(t, "<text x=\"%d\" y=\"34\" font-size=\"11\" text-anchor=\"middle\">%s%g</text>", 10 + 100 * k,
+        text_printf(t, "<text x=\"%d\" y=\"34\" font-size=\"11\" text-anchor=\"middle\">%s%g</text>", 20 + 100 * k,
                     k == 4 ? "&#8805; " : "", GV_ERROR_MAP_FULL_SCALE * k / 4);
     text_append(t, "</svg>\n");
 }

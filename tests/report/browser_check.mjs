@@ -7,13 +7,14 @@
 //           dragged; writes a screenshot.
 // Prints one JSON line with the measurements; exits 1 on a failed check, 77 when it cannot
 // run (no WebSocket in this Node).
-// Usage: node --experimental-websocket browser_check.mjs CHROMIUM report|viewer FILE OUT.png
+// Usage: node --experimental-websocket browser_check.mjs CHROMIUM report|viewer FILE OUT.png [W,H]
+// (W,H: the window, 1280,900 for the report and 480,400 for the viewer by default)
 import { spawn } from "node:child_process";
 import { mkdtempSync, rmSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
 
-const [chromium, mode, file, screenshot] = process.argv.slice(2);
+const [chromium, mode, file, screenshot, size] = process.argv.slice(2);
 if (!chromium || !["report", "viewer"].includes(mode) || !file || !screenshot) {
   console.error("usage: node --experimental-websocket browser_check.mjs CHROMIUM report|viewer FILE OUT.png");
   process.exit(2);
@@ -26,7 +27,7 @@ if (typeof WebSocket === "undefined") {
 const profile = mkdtempSync(join(tmpdir(), "gv-chromium-"));
 const browser = spawn(chromium, [
   "--headless", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-  "--remote-debugging-port=0", `--user-data-dir=${profile}`, mode === "viewer" ? "--window-size=480,400" : "--window-size=1280,900",
+  "--remote-debugging-port=0", `--user-data-dir=${profile}`, `--window-size=${size ?? (mode === "viewer" ? "480,400" : "1280,900")}`,
   "--no-first-run", "--hide-scrollbars", "about:blank",
 ], { stdio: ["ignore", "ignore", "pipe"] });
 const failures = [];
@@ -38,7 +39,7 @@ function finish(code) {
   console.log(JSON.stringify(result));
   process.exit(code);
 }
-setTimeout(() => { failures.push("timed out after 150 s"); finish(1); }, 150000);
+setTimeout(() => { failures.push("timed out after 240 s"); finish(1); }, 240000);
 
 const endpoint = await new Promise((ok, fail) => {
   let text = "";
@@ -154,7 +155,7 @@ const VARIANCE_MIN = 20; // a blank or uniform canvas has ~0; a room has hundred
 const CHANGE_MIN = 2; // mean |difference| in luminance levels over the 32x32 thumbnail
 
 let first;
-for (let waited = 0; waited < 90000; waited += 500) {
+for (let waited = 0; waited < 60000; waited += 500) {
   first = await evaluate(sample);
   if (first.state === "loaded" && first.variance > VARIANCE_MIN) break;
   await sleep(500);

@@ -41,7 +41,11 @@ const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDra
 renderer.setClearColor(path.background === "white" ? 0xffffff : 0x000000);
 const scene = new THREE.Scene();
 const camera = new THREE.PerspectiveCamera(cameras[0].fovY, path.width / path.height, path.near, path.far);
-const spark = new SparkRenderer({ renderer });
+// Frames are drawn only when something changed (playing, a drag, the slider, a resize, or
+// Spark finishing a sort), so a paused viewer leaves the processor idle.
+let dirty = true;
+const redraw = () => (dirty = true);
+const spark = new SparkRenderer({ renderer, onDirty: redraw });
 scene.add(spark);
 
 const modelElement = document.getElementById("gv-model");
@@ -50,6 +54,7 @@ const model = new SplatMesh({
   fileType: SplatFileType.SPLAT,
   onLoad: () => {
     document.body.dataset.state = "loaded";
+    redraw();
   },
 });
 scene.add(model);
@@ -61,6 +66,7 @@ function fit() {
   const scale = Math.min(w / path.width, h / path.height);
   renderer.setPixelRatio(window.devicePixelRatio || 1);
   renderer.setSize(Math.floor(path.width * scale), Math.floor(path.height * scale));
+  redraw();
 }
 window.addEventListener("resize", fit);
 fit();
@@ -79,6 +85,7 @@ slider.value = String(state.s);
 
 function setPlaying(playing) {
   state.playing = playing;
+  redraw();
   playButton.textContent = playing ? "Pause" : "Play";
 }
 setPlaying(state.playing);
@@ -92,7 +99,9 @@ window.addEventListener("keydown", (e) => {
 slider.addEventListener("input", () => {
   setPlaying(false);
   state.s = Number(slider.value);
+  redraw();
 });
+speed.addEventListener("change", redraw);
 
 // A drag starts on the canvas and is followed on the window, so it goes on outside the canvas.
 let drag = null;
@@ -104,11 +113,13 @@ window.addEventListener("pointermove", (e) => {
   if (!drag) return;
   state.yaw = drag.yaw - (e.clientX - drag.x) * LOOK_RADIANS_PER_PIXEL;
   state.pitch = Math.max(-1.4, Math.min(1.4, drag.pitch - (e.clientY - drag.y) * LOOK_RADIANS_PER_PIXEL));
+  redraw();
 });
 window.addEventListener("pointerup", () => (drag = null));
 canvas.addEventListener("dblclick", () => {
   state.yaw = 0;
   state.pitch = 0;
+  redraw();
 });
 
 // The camera at path position s: centres linearly, rotations by slerp, then the look offset.
@@ -137,7 +148,10 @@ renderer.setAnimationLoop((now) => {
     state.s += dt * FRAMES_PER_SECOND * Number(speed.value);
     if (state.s > cameras.length - 1) state.s = 0;
     slider.value = String(state.s);
+    dirty = true;
   }
+  if (!dirty) return;
+  dirty = false;
   place(state.s);
   renderer.render(scene, camera);
 });
