@@ -91,6 +91,23 @@ static int read_string(const reader *r, const cJSON *o, const char *key, int nul
     return 0;
 }
 
+/* A string from the file as a message shows it: at most 60 characters, control characters as
+ * '?', so a message stays one line. */
+static const char *shown(const char *s, char *buf, size_t size)
+{
+    size_t n = 0;
+    for (; *s && n + 1 < size && n < 60; s++) buf[n++] = (unsigned char)*s < 0x20 ? '?' : *s;
+    buf[n] = '\0';
+    return buf;
+}
+
+static int has_control_character(const char *s)
+{
+    for (; *s; s++)
+        if ((unsigned char)*s < 0x20) return 1;
+    return 0;
+}
+
 /* Enters a child object or array for messages: where += ".key" or "[i]". */
 static void enter(reader *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void enter(reader *r, const char *fmt, ...)
@@ -155,8 +172,11 @@ static int read_images(reader *r, const cJSON *frame, report_frame *f)
         /* the render exists from the first stage on; the others come later (or never: ground truth) */
         rc = read_string(r, images, report_image_names[k], k != IMAGE_RENDER, name, sizeof name);
         if (rc == 0 && name[0] && !(f->images[k] = strdup(name))) rc = gv_fail("out of memory");
+        char buf[64];
+        if (rc == 0 && has_control_character(name))
+            rc = bad_key(r, report_image_names[k], "the path contains a control character");
         if (rc == 0 && k != IMAGE_GROUND_TRUTH && name[0] == '/')
-            rc = bad_key(r, report_image_names[k], "expected a path relative to the folder, found %s", name);
+            rc = bad_key(r, report_image_names[k], "expected a path relative to the folder, found %s", shown(name, buf, sizeof buf));
     }
     leave(r, at);
     return rc;
@@ -295,8 +315,9 @@ static int read_run(reader *r, const cJSON *run, report_run *out)
     if (!cJSON_IsObject(run)) return gv_fail("%s: %s: expected an object, found %s", r->path, r->where, gv_json_type(run));
     if (read_int(r, run, "interval", 1, 1 << 20, &out->interval) != 0) return -1;
     if (read_string(r, run, "path", 0, path, sizeof path) != 0) return -1;
+    char buf[64];
     if (strcmp(path, "held-out") && strcmp(path, "smooth"))
-        return bad_key(r, "path", "expected \"held-out\" or \"smooth\", found \"%s\"", path);
+        return bad_key(r, "path", "expected \"held-out\" or \"smooth\", found \"%s\"", shown(path, buf, sizeof buf));
     out->smooth = !strcmp(path, "smooth");
     if (read_int_array(r, run, "train_frames", &out->train_frames, &out->n_train) != 0) return -1;
     if (read_gaussians(r, run, out) != 0) return -1;
@@ -335,10 +356,12 @@ static int read_document(reader *r, const cJSON *root, report_metrics *m)
     char format[64];
     if (!cJSON_IsObject(root)) return gv_fail("%s: expected a JSON object, found %s", r->path, gv_json_type(root));
     if (read_string(r, root, "format", 0, format, sizeof format) != 0) return -1;
+    char buf[64];
     if (strcmp(format, "gaussvid-reconstruct-1"))
-        return bad_key(r, "format", "expected \"gaussvid-reconstruct-1\", found \"%s\"", format);
+        return bad_key(r, "format", "expected \"gaussvid-reconstruct-1\", found \"%s\"", shown(format, buf, sizeof buf));
     if (read_string(r, root, "scene", 0, m->scene, sizeof m->scene) != 0) return -1;
     if (read_string(r, root, "scene_dir", 0, m->scene_dir, sizeof m->scene_dir) != 0) return -1;
+    if (has_control_character(m->scene_dir)) return bad_key(r, "scene_dir", "the path contains a control character");
     if (read_int(r, root, "width", 1, 1 << 16, &m->width) != 0) return -1;
     if (read_int(r, root, "height", 1, 1 << 16, &m->height) != 0) return -1;
     if (read_restorer(r, root, &m->restorer) != 0) return -1;
