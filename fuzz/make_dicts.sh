@@ -19,6 +19,7 @@ json_syntax() {
 { json_syntax; literals src/io/transforms.c; } > $D/transforms.dict
 { json_syntax; literals src/model/config_json.c src/model/config_presets.c; } > $D/config.dict
 { json_syntax; literals src/data/manifest.c src/data/runs.c src/data/stats.c; } > $D/manifest.dict
+{ json_syntax; literals src/report/metrics_read.c; } > $D/report.dict
 # safetensors: the header's keys, every dtype, and the metadata keys of clips and checkpoints.
 { json_syntax; printf '%s\n' '"dtype"' '"shape"' '"data_offsets"' '"__metadata__"';
   literals src/io/safetensors_dtype.c; } > $D/safetensors.dict

@@ -15,7 +15,7 @@ export OMP_NUM_THREADS=1
 
 # A first byte that picks the reader (the harnesses' selector), then the file.
 with_byte() { { printf "\\x$(printf %02x "$1")"; cat "$2"; } > "$3"; }
-mkdir -p "$C"/{colmap_bin,colmap_text,transforms,ply,image,safetensors,clip,config,manifest,checkpoint}
+mkdir -p "$C"/{colmap_bin,colmap_text,transforms,ply,image,safetensors,clip,config,manifest,checkpoint,report}
 
 "$G" scene synth --seed 3 --frames 14 --size 32x32 --samples 1 --out A --quiet
 "$G" scene synth --seed 4 --frames 14 --size 32x32 --samples 1 --out B --quiet
@@ -204,4 +204,9 @@ with_byte 1 base.safetensors "$C/checkpoint/base_load"
 with_byte 2 vae.safetensors "$C/checkpoint/vae"
 with_byte 3 "$C/safetensors/floats" "$C/checkpoint/lpips_other"  # not LPIPS weights: refused
 with_byte 4 base.safetensors "$C/checkpoint/base_resume"
+# metrics.json of a reconstruction folder: a held-out and a smooth run (tests/report/make_fixture.sh).
+bash "$ROOT/tests/report/make_fixture.sh" "$G" A R 6 5 > /dev/null
+cp R/metrics.json "$C/report/held_out.json"
+bash "$ROOT/tests/report/make_fixture.sh" "$G" A R 4 5 smooth 4 > /dev/null
+cp R/metrics.json "$C/report/both.json"
 du -sh "$C"/*

@@ -17,7 +17,8 @@ data    : splat       : dataset internal_pairs
 train   : model data  : train condition checkpoint vae_train model_import scene_adapt
 restore : train       : restore adapt
 eval    : restore     : eval lpips
-pipeline: eval        : pipeline
+report  : scene       : report
+pipeline: eval report : pipeline
 bench   : restore     : -
 cli     : pipeline bench : -
 '

@@ -8,6 +8,7 @@
 #ifndef GAUSSVID_IMAGE_H
 #define GAUSSVID_IMAGE_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 typedef struct {
@@ -26,6 +27,8 @@ int gv_image_read_jpeg(const char *path, gv_image *out);
 /* Writes an 8-bit PNG with the image's channel count, under a temporary name renamed
  * into place. */
 int gv_image_write_png(const char *path, const gv_image *img);
+/* Encodes an 8-bit PNG into memory (as gv_image_write_png writes it); *bytes is malloc'd. */
+int gv_image_encode_png(const gv_image *img, uint8_t **bytes, size_t *size);
 /* Allocates zeroed pixels; fails on a non-positive size, channels outside 1..4 or a size
  * above 2^31 bytes. */
 int gv_image_alloc(gv_image *img, int width, int height, int channels);

@@ -45,5 +45,6 @@ int cmd_restore(int argc, char **argv);
 int cmd_eval(int argc, char **argv);
 int cmd_adapt(int argc, char **argv);
 int cmd_reconstruct(int argc, char **argv);
+int cmd_report(int argc, char **argv);
 
 #endif

@@ -27,6 +27,7 @@ static const gv_subcommand commands[] = {
     {"restore", cmd_restore, "restore the intermediate frames of clips with a trained checkpoint"},
     {"eval", cmd_eval, "PSNR and SSIM of baseline and restored frames per interval n (Markdown, JSON)"},
     {"adapt", cmd_adapt, "adapt the restorer to one scene from its own training views (scene checkpoint, gate)"},
+    {"report", cmd_report, "the HTML report and browser viewers of a reconstruction folder"},
 };
 static const int n_commands = sizeof commands / sizeof commands[0];
 

@@ -175,3 +175,36 @@ int gv_image_write_png(const char *path, const gv_image *img)
     }
     return gv_atomic_commit(&af);
 }
+
+int gv_image_encode_png(const gv_image *img, uint8_t **bytes, size_t *size)
+{
+    *bytes = NULL;
+    *size = 0;
+    if (!img->pixels || img->width <= 0 || img->height <= 0 || img->channels < 1 ||
+        img->channels > 4)
+        return gv_fail("cannot encode an empty or invalid image (%dx%dx%d) as PNG", img->width,
+                       img->height, img->channels);
+    char *buffer = NULL;
+    size_t length = 0;
+    FILE *f = open_memstream(&buffer, &length); /* libpng writes through stdio, here into memory */
+    if (!f) return gv_fail("cannot encode a PNG in memory: %s", strerror(errno));
+    png_context ctx = {.path = "(memory)", .f = f};
+    ctx.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &ctx, png_error_to_context,
+                                      png_warning_ignored);
+    ctx.info = ctx.png ? png_create_info_struct(ctx.png) : NULL;
+    int rc = -1;
+    if (!ctx.png || !ctx.info) snprintf(ctx.message, sizeof ctx.message, "out of memory");
+    else rc = png_write_body(&ctx, img);
+    if (ctx.png) png_destroy_write_struct(&ctx.png, ctx.info ? &ctx.info : NULL);
+    if (fclose(f) != 0 && rc == 0) {
+        rc = -1;
+        snprintf(ctx.message, sizeof ctx.message, "out of memory");
+    }
+    if (rc != 0) {
+        free(buffer);
+        return gv_fail("cannot encode a PNG in memory: %s", ctx.message);
+    }
+    *bytes = (uint8_t *)buffer;
+    *size = length;
+    return 0;
+}

@@ -8,6 +8,7 @@
 #include "gaussvid/checkpoint.h"
 #include "gaussvid/core.h"
 #include "gaussvid/model_config.h"
+#include "gaussvid/report.h"
 #include "pipeline/pipeline_internal.h"
 
 typedef struct {
@@ -169,6 +170,11 @@ int gv_reconstruct(const gv_reconstruct_options *o)
             rc = run_interval(&r, last);
         }
         pipeline_plan_free(&r);
+    }
+    if (rc == 0 && last == N_STAGES - 1) { /* every interval finished: the page that shows them */
+        double wall = gv_now();
+        rc = gv_report_write(o->out_dir);
+        if (rc == 0) gv_info("report: %s/report.html and a viewer.html per model, %.1f s", o->out_dir, gv_now() - wall);
     }
     cJSON_Delete(doc);
     gv_scene_free(&scene);

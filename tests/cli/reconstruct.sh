@@ -93,6 +93,7 @@ check "the refined model reads" "$G" splat export R/n6/refined.ply --out refined
 check "refined.splat is that model" cmp -s refined_copy.splat R/n6/refined.splat
 if [ $HAVE_FFMPEG = 1 ]; then
     exists R/n6/flythrough.mp4
+    exists R/report.html
     check "the video is 20 frames of 192x48" test "$(ffprobe -v error -count_frames -select_streams v:0 \
         -show_entries stream=nb_read_frames,width,height -of csv=p=0 R/n6/flythrough.mp4)" = "192,48,20"
 fi
