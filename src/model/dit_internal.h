@@ -51,8 +51,10 @@ int gv_vace_hints(gv_graph *g, const gv_dit *m, gv_tensor *vace, gv_tensor *x0, 
 /* Walks the network's tensors: with params, registers each (frozen) and stores it in its slot;
  * without, only checks names and shapes against the list. Then requires that every non-VAE
  * tensor of the list was bound exactly once. */
-int gv_dit_bind(gv_dit *m, const gv_model_config *c, const gv_weight_list *list, gv_params *params);
-/* Initial values of every registered tensor from its spec (docs/MODEL.md). */
+int gv_dit_bind(gv_dit *m, const gv_model_config *c, const gv_weight_list *list, gv_params *params,
+                unsigned empty_parts);
+/* Initial values of every registered tensor from its spec (docs/MODEL.md); tensors
+ * registered empty are left to their loader. */
 int gv_dit_init_values(gv_dit *m, uint64_t seed);
 
 #endif
