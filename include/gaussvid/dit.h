@@ -128,6 +128,9 @@ typedef struct {
     const gv_dit_camera_cache *camera_cache; /* replaces plucker when given */
     float context_scale;          /* VACE hint scale (official default 1) */
     gv_dit_trace *trace;          /* NULL or filled */
+    void (*progress)(void *ctx, int done, int total); /* NULL, or told after each VACE and main
+                                     block (total = n_vace_layers + num_layers): long passes */
+    void *progress_ctx;
 } gv_dit_inputs;
 
 /* Default inputs: everything NULL, context_scale 1. */

@@ -227,7 +227,8 @@ gv_tensor *gv_dit_forward(gv_dit *m, gv_graph *g, const gv_dit_inputs *in)
         if (!xc) return NULL;
         if (!stream) x = gv_add(g, x, xc); /* early fusion: added to the video tokens once (DESIGN 6.6) */
     }
-    if (in->vace && gv_vace_hints(g, m, in->vace, x, e0, rope, ctx, tr->hints) != 0) return NULL;
+    if (in->vace && gv_vace_hints(g, m, in, x, e0, rope, ctx, tr->hints) != 0) return NULL;
+    const int done0 = in->vace ? d->n_vace_layers : 0;
     const int joint = stream && m->joint_attention && !in->camera_cache;
     if (stream && !joint && camera_stream(g, m, in, xc, rope_c, tr->camera_x, tr->camera_k, tr->camera_v) != 0) return NULL;
     gv_tensor *rope2 = NULL, *mask = NULL, *e0c = NULL;
@@ -250,6 +251,7 @@ gv_tensor *gv_dit_forward(gv_dit *m, gv_graph *g, const gv_dit_inputs *in)
         }
         /* inference: drop the block's activations (the trace keeps only what was made before) */
         if (!x || (!joint && !in->trace && gv_dit_keep_only(g, mark, &x, 1) != 0)) return NULL;
+        if (in->progress) in->progress(in->progress_ctx, done0 + i + 1, done0 + L);
     }
     return head(g, m, x, e, grid);
 }
