@@ -128,6 +128,7 @@ int gv_dit_load(gv_dit *m, const char *const *paths, int n_paths, unsigned parts
         gv_weight_report_free(&r);
     }
     if (rc == 0) rc = read_tensors(m, files, n_paths);
+    if (rc == 0) rc = gv_dit_check_loaded(m); /* a tensor registered without values must have come from a file */
     close_all(files, n_paths);
     return rc;
 }
