@@ -10,6 +10,7 @@
  *   - a NaN in a BF16 weight fails the forward pass naming the tensor, and an op other than
  *     a linear layer refuses a BF16 tensor. */
 #include <stdint.h>
+#include <stdlib.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -138,6 +139,11 @@ static long child_peak(const char *path, int resident)
     pid_t pid = fork();
     if (pid < 0) return -1;
     if (pid == 0) {
+        /* under AddressSanitizer, freed buffers would stay resident in its quarantine */
+        char options[1024];
+        const char *asan = getenv("ASAN_OPTIONS");
+        snprintf(options, sizeof options, "%s%squarantine_size_mb=0", asan ? asan : "", asan && *asan ? ":" : "");
+        setenv("ASAN_OPTIONS", options, 1);
         execl("/proc/self/exe", "test_dit_stream", "--peak", path, resident ? "resident" : "streamed", (char *)NULL);
         _exit(127);
     }
