@@ -14,5 +14,9 @@ int gv_bench_train(const gv_bench_options *o, const char *preset, int height, in
 int gv_bench_train_command(int argc, char **argv);
 /* `gaussvid bench import --dir DIR [--preset P] [--dtype BF16|F32] [--shards N]` (bench_import.c) */
 int gv_bench_import_command(int argc, char **argv);
+/* `gaussvid bench stream`: a Wan preset on random BF16 weights of the real shapes streamed from
+ * the mapped file: one forward pass, one restore of a clip or one fine-tuning step, with its
+ * CPU time and peak resident set (bench/bench_stream.c). */
+int gv_bench_stream_command(int argc, char **argv);
 
 #endif

@@ -285,11 +285,11 @@ static void test_wan_names(void)
     memset(&m, 0, sizeof m);
     gv_dit_block blocks[2], vace[2];
     m.blocks = blocks, m.vace_blocks = vace;
-    CHECK_FAILS_WITH(gv_dit_bind(&m, &c, &l, NULL), "text_embedding.0.weight");
+    CHECK_FAILS_WITH(gv_dit_bind(&m, &c, &l, NULL, 0), "text_embedding.0.weight");
     gv_weight_list_free(&l);
     CHECK(gv_weight_list_build(&l, &c) == 0);
     c.camera.channels = 5; /* the list says 4 */
-    CHECK_FAILS_WITH(gv_dit_bind(&m, &c, &l, NULL), "camera_encoder.conv_m.weight");
+    CHECK_FAILS_WITH(gv_dit_bind(&m, &c, &l, NULL, 0), "camera_encoder.conv_m.weight");
     gv_weight_list_free(&l);
 }
 

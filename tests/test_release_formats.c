@@ -90,12 +90,20 @@ static void test_dit(void)
     for (int i = 0; i < f32.params.n && i < bf16.params.n; i++) {
         const gv_tensor *a = &f32.params.items[i]->t, *b = gv_params_find(&bf16.params, a->name) ? &gv_params_find(&bf16.params, a->name)->t : NULL;
         if (!b || b->numel != a->numel) { differ++; continue; }
+        float *scratch; /* the linear weights stay BF16 in the mapped shards */
+        const float *bv = gv_tensor_values(b, &scratch);
+        if (!bv) { differ++; continue; }
         for (int64_t k = 0; k < a->numel; k++) {
-            differ += bits_of_float(b->data[k]) != bits_of_float(bf16_round(a->data[k]));
-            rounded += a->data[k] != b->data[k];
+            differ += bits_of_float(bv[k]) != bits_of_float(bf16_round(a->data[k]));
+            rounded += a->data[k] != bv[k];
         }
+        free(scratch);
         elements += a->numel;
     }
+    int kept = 0;
+    int64_t kept_bytes = gv_dit_bf16_bytes(&bf16, &kept);
+    printf("kept in BF16 (mapped): %d linear weights, %lld bytes\n", kept, (long long)kept_bytes);
+    CHECK(kept > 0 && kept_bytes > 0 && gv_dit_bf16_bytes(&f32, NULL) == 0);
     printf("DiT + VACE: %lld elements; BF16 = round(F32) for all but %lld; %lld changed by the rounding\n",
            (long long)elements, (long long)differ, (long long)rounded);
     CHECK(elements == 75184 && differ == 0 && rounded > elements / 2);

@@ -16,6 +16,16 @@
 #define GV_CHECKPOINT_VERSION 1
 #define GV_CHECKPOINT_TEXT 1024
 
+/* Where a checkpoint's text context comes from (docs/WAN_WEIGHTS.md "The tokenizer and the
+ * cached context"): metadata "text_context", "text_prompt", "text_encoder", "text_tokenizer";
+ * all "" for a network without text (the zero context). */
+typedef struct {
+    char path[GV_CHECKPOINT_TEXT];      /* the cache, text_context.safetensors */
+    char prompt[GV_CHECKPOINT_TEXT];    /* the prompt it encodes */
+    char encoder[GV_CHECKPOINT_TEXT];   /* the umT5 weights that compute it, or "" */
+    char tokenizer[GV_CHECKPOINT_TEXT]; /* their SentencePiece model, or "" */
+} gv_text_source;
+
 /* What the metadata records besides the config. */
 typedef struct {
     char kind[16];                 /* "base" (pretraining) or "finetune" */
@@ -33,6 +43,7 @@ typedef struct {
     char clips[GV_CHECKPOINT_TEXT];/* the dataset folder trained on (informational) */
     char data[GV_CHECKPOINT_TEXT]; /* the training clips: split, count, hash of their names */
     char training[GV_CHECKPOINT_TEXT]; /* options that decide the steps taken */
+    gv_text_source text;           /* the prompt's context (a fine-tuning keeps its base's) */
 } gv_train_state;
 
 /* ---- for inference ------------------------------------------------------------------------ */
@@ -77,5 +88,25 @@ void gv_config_describe(const gv_model_config *c, char *out, size_t size);
 int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out, size_t size);
 /* "fnv1a64:<16 hex digits>" of gv_vae_checksum (the latent cache's key) into out. */
 void gv_checkpoint_vae_checksum(const gv_vae *vae, char *out, size_t size);
+
+/* ---- the prompt's text context (text_context.c) --------------------------------------------
+ * The DiT's cross-attention context of a prompt, [text_len, text_dim], computed by the umT5
+ * encoder once and cached in a safetensors file (tensor "text_context", F32) whose metadata
+ * is its key: "prompt", "text_encoder" and "text_encoder_bytes" (the encoder's path and size:
+ * hashing 11 GB at every load would cost minutes), "tokenizer" and "tokenizer_checksum"
+ * (FNV-1a 64 of the SentencePiece model). */
+/* Computes the context of prompt with the encoder and tokenizer and writes the cache to path
+ * (atomically); *n_tokens is the prompt's token count. */
+int gv_text_context_write(const char *encoder, const char *tokenizer, const gv_model_config *cfg, const char *prompt,
+                          const char *path, int *n_tokens);
+/* The context into out [text_len, text_dim]: from the cache at src->path when its key is
+ * still that of src (the prompt, and the encoder and tokenizer it names when they are there
+ * to compare), else computed again and the cache rewritten (*computed = 1); without a cache,
+ * computed from src->encoder and src->tokenizer. Fails in one line when it is stale or absent
+ * and no encoder is there to compute it. */
+int gv_text_context_get(const gv_text_source *src, const gv_model_config *cfg, float *out, int *computed);
+/* Gives m the text context the checkpoint at ckpt names (state s; paths as written, else
+ * beside the checkpoint); a checkpoint that names none leaves the zero context. */
+int gv_checkpoint_text(const char *ckpt, const gv_train_state *s, gv_dit *m);
 
 #endif

@@ -18,8 +18,9 @@
  * the corrupted render, as in the authors' pipeline (reference 1.2 step 2). An end frame that
  * is not an anchor of the variant (anchors first / none) is blanked (0 = mid-grey) in the
  * input clip, in z_corrupt and in the context: the ablation must not see its clean view.
- * Configs with text cross-attention take a zero text context [batch, text_len, text_dim]
- * (there are no prompts here). */
+ * Configs with text cross-attention take the model's text context [batch, text_len, text_dim]
+ * (the prompt's, cached beside imported Wan weights; zeros for the small presets, which have
+ * no prompts: gv_dit_text_input). */
 #ifndef GAUSSVID_CONDITION_H
 #define GAUSSVID_CONDITION_H
 

@@ -72,11 +72,22 @@ typedef struct {
     int joint_attention;          /* reference path: one attention over [video; camera] with the
                                      asymmetric mask instead of the two equivalent calls */
     gv_dit_train_mode mode;
+    float *text;                  /* the prompt's text context [text_len, text_dim] that restore
+                                     and training give every forward pass (the cached
+                                     text_context.safetensors a checkpoint names), or NULL:
+                                     a zero context */
+    gv_st_file *mapped;           /* open weight files whose mappings bfloat16 weights point
+                                     into (gv_dit_read_param), closed by gv_dit_free */
+    int n_mapped;
 } gv_dit;
 
 /* Builds every tensor of the config (VAE excluded) from its weight list and initialises them
  * (Wan's scheme; the zero-initialised projections of the spec; docs/MODEL.md). Frozen. */
 int gv_dit_init(gv_dit *m, const gv_model_config *cfg, uint64_t seed);
+/* The same, but the frozen tensors of loaded_parts (GV_PART_*) get no values: a loader that
+ * reads all of them from a file gives each its values (gv_dit_read_param), so no float32
+ * copy of a bfloat16 base is ever made. */
+int gv_dit_init_parts(gv_dit *m, const gv_model_config *cfg, uint64_t seed, unsigned loaded_parts);
 void gv_dit_free(gv_dit *m);
 /* Checks, without allocating any data, that the network's tensors (names and shapes, as the
  * forward pass binds them) are exactly the non-VAE tensors of the config's weight list. */
@@ -117,6 +128,9 @@ typedef struct {
     const gv_dit_camera_cache *camera_cache; /* replaces plucker when given */
     float context_scale;          /* VACE hint scale (official default 1) */
     gv_dit_trace *trace;          /* NULL or filled */
+    void (*progress)(void *ctx, int done, int total); /* NULL, or told after each VACE and main
+                                     block (total = n_vace_layers + num_layers): long passes */
+    void *progress_ctx;
 } gv_dit_inputs;
 
 /* Default inputs: everything NULL, context_scale 1. */
@@ -147,7 +161,26 @@ int gv_vace_mask_latent(const float *mask, int frames, int height, int width, in
 int gv_vace_context_concat(const float *z_inactive, const float *z_reactive, const float *mask_latent,
                            int z_dim, int mask_channels, int frames, int h, int w, float *out);
 
-/* ---- weights (model_io.c) ----------------------------------------------------------------- */
+/* ---- weights (model_io.c) -----------------------------------------------------------------
+ * Memory (docs/WAN_WEIGHTS.md "Memory"): a frozen linear weight of the DiT or VACE that the
+ * file stores in BF16 stays in the file's mapping (tensor.h, "Weights kept in bfloat16"):
+ * each linear layer converts it to float32 when it runs and drops its pages after, so a
+ * forward pass holds one weight matrix in float32 at a time. Every other tensor is read as
+ * float32. Trainable tensors (LoRA, camera encoder) are always float32. */
+/* Gives parameter p its values from tensor p->t.name of f (which must have it with p's
+ * shape): kept in BF16 as above (then *kept is set and f must stay open: gv_dit_keep_file),
+ * else read as float32 and checked finite. */
+int gv_dit_read_param(gv_dit *m, const gv_st_file *f, gv_param *p, int *kept);
+/* Hands an open file to the model (closed by gv_dit_free); *f is emptied. */
+int gv_dit_keep_file(gv_dit *m, gv_st_file *f);
+/* Fails naming the first tensor that has no values (a loader missed it). */
+int gv_dit_check_loaded(const gv_dit *m);
+/* Tensors of the model kept in BF16, and their bytes. */
+int64_t gv_dit_bf16_bytes(const gv_dit *m, int *n_tensors);
+/* The text input of a forward pass: m->text in each of the batch rows, or zeros without one. */
+gv_tensor *gv_dit_text_input(const gv_dit *m, gv_graph *g, int batch);
+/* Sets m->text to a copy of context [text_len, text_dim] (NULL: back to the zero context). */
+int gv_dit_set_text(gv_dit *m, const float *context);
 /* Loads every tensor of the `parts` (GV_PART_* of weight_names.h; VAE parts ignored) from the
  * files, by name; all of them must be present with their shapes; tensors of other parts in
  * the files are loaded too when the model has them; unknown names fail (listed). */

@@ -85,7 +85,6 @@ typedef struct {
     gv_graph graph;
     gv_dit_camera_cache cache;
     int has_cache;
-    float *text;                       /* zero text context for cross-attention configs */
     int evaluations;                   /* network evaluations so far */
 } gv_restore_net;
 int gv_restore_net_init(gv_restore_net *r, gv_dit *m, const gv_clip_latents *l, int use_camera_cache);

@@ -69,6 +69,11 @@ typedef struct gv_tensor {
     const char *name;    /* parameter name, or NULL */
     const void *grad_graph; /* graph whose arena holds grad (NULL: a parameter's own buffer) */
     uint64_t grad_epoch;    /* ... and that graph's step when it was allocated */
+    const unsigned char *bf16; /* a frozen weight kept as little-endian bfloat16 elsewhere (then
+                                  data is NULL): only gv_linear takes it, converting it to
+                                  float32 at each use (gv_tensor_values) */
+    int bf16_mapped;     /* bf16 points into a read-only file mapping: its pages are dropped
+                            after each use, so the weights need not stay resident */
 } gv_tensor;
 
 /* ---- Graph: arena + tape ------------------------------------------------------------------ */
@@ -161,5 +166,27 @@ void gv_params_zero_grad(gv_params *ps);
 int64_t gv_params_count(const gv_params *ps, int trainable_only);
 /* Fails naming the first parameter with a NaN or infinite value (what = "data" or "grad"). */
 int gv_params_check_finite(const gv_params *ps, int check_grad);
+
+/* ---- Weights kept in bfloat16 (bf16.c) ----------------------------------------------------
+ * A frozen weight may stay in the bfloat16 bytes of a mapped file instead of a float32 copy:
+ * half the memory, and with `mapped` its pages are dropped after every use (madvise
+ * MADV_DONTNEED), so a model larger than the RAM runs one layer's weights at a time. */
+/* Registers a parameter without values (data NULL): a loader gives it values with
+ * gv_param_alloc (float32 zeros) or gv_param_set_bf16. */
+gv_tensor *gv_params_add_empty(gv_params *ps, const char *name, int ndim, const int *shape);
+/* Allocates a float32 zero buffer for a parameter that has none. */
+int gv_param_alloc(gv_param *p);
+/* The parameter's values become the numel bfloat16 values at bf16 (little-endian, any
+ * alignment; the memory must outlive the parameter); its float32 buffer is freed. Frozen
+ * parameters only. */
+int gv_param_set_bf16(gv_param *p, const void *bf16, int mapped);
+/* A bfloat16 parameter becomes float32 (a heap copy), e.g. before it is trained. */
+int gv_param_materialize(gv_param *p);
+/* n little-endian bfloat16 values to float32 (exact). */
+void gv_bf16_to_f32_n(const unsigned char *src, float *dst, int64_t n);
+/* The float32 values of t: t->data, or for a bfloat16 weight a converted copy in *scratch
+ * (malloc'ed; the caller frees it), with the mapped pages dropped afterwards. NULL with a
+ * message when out of memory or when a value is a NaN or infinite (a bad weight file). */
+const float *gv_tensor_values(const gv_tensor *t, float **scratch);
 
 #endif

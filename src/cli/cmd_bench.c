@@ -54,6 +54,7 @@ static const gv_subcommand bench_commands[] = {
     {"model", gv_bench_model_command, "restoration network: fine-tuning step per variant, camera cache, VAE"},
     {"train", gv_bench_train_command, "training throughput: pretraining and fine-tuning clips/s, peak memory"},
     {"import", gv_bench_import_command, "model import on a stand-in Wan2.1-VACE release of the real shapes"},
+    {"stream", gv_bench_stream_command, "a Wan preset on BF16 weights streamed from the file: forward, restore, train step"},
     {"all", cmd_bench_all, "every benchmark above, as tables"},
 };
 

@@ -10,6 +10,11 @@
 
 int gv_dit_init(gv_dit *m, const gv_model_config *cfg, uint64_t seed)
 {
+    return gv_dit_init_parts(m, cfg, seed, 0);
+}
+
+int gv_dit_init_parts(gv_dit *m, const gv_model_config *cfg, uint64_t seed, unsigned loaded_parts)
+{
     memset(m, 0, sizeof *m);
     m->cfg = *cfg;
     gv_params_init(&m->params);
@@ -18,7 +23,7 @@ int gv_dit_init(gv_dit *m, const gv_model_config *cfg, uint64_t seed)
     m->vace_blocks = calloc((size_t)cfg->dit.n_vace_layers + 1, sizeof *m->vace_blocks);
     m->lora_scale = cfg->lora.rank > 0 ? (float)(cfg->lora.alpha / cfg->lora.rank) : 0.0f;
     int rc = m->blocks && m->vace_blocks ? 0 : gv_fail("%s: out of memory for the blocks", cfg->name);
-    if (rc == 0) rc = gv_dit_bind(m, cfg, &m->weights, &m->params);
+    if (rc == 0) rc = gv_dit_bind(m, cfg, &m->weights, &m->params, loaded_parts);
     if (rc == 0) rc = gv_dit_init_values(m, seed);
     if (rc != 0) gv_dit_free(m);
     return rc;
@@ -27,6 +32,9 @@ int gv_dit_init(gv_dit *m, const gv_model_config *cfg, uint64_t seed)
 void gv_dit_free(gv_dit *m)
 {
     gv_params_free(&m->params);
+    for (int i = 0; i < m->n_mapped; i++) gv_st_close(&m->mapped[i]); /* after the weights pointing into them */
+    free(m->mapped);
+    free(m->text);
     gv_weight_list_free(&m->weights);
     free(m->blocks);
     free(m->vace_blocks);
@@ -219,7 +227,8 @@ gv_tensor *gv_dit_forward(gv_dit *m, gv_graph *g, const gv_dit_inputs *in)
         if (!xc) return NULL;
         if (!stream) x = gv_add(g, x, xc); /* early fusion: added to the video tokens once (DESIGN 6.6) */
     }
-    if (in->vace && gv_vace_hints(g, m, in->vace, x, e0, rope, ctx, tr->hints) != 0) return NULL;
+    if (in->vace && gv_vace_hints(g, m, in, x, e0, rope, ctx, tr->hints) != 0) return NULL;
+    const int done0 = in->vace ? d->n_vace_layers : 0;
     const int joint = stream && m->joint_attention && !in->camera_cache;
     if (stream && !joint && camera_stream(g, m, in, xc, rope_c, tr->camera_x, tr->camera_k, tr->camera_v) != 0) return NULL;
     gv_tensor *rope2 = NULL, *mask = NULL, *e0c = NULL;
@@ -242,6 +251,7 @@ gv_tensor *gv_dit_forward(gv_dit *m, gv_graph *g, const gv_dit_inputs *in)
         }
         /* inference: drop the block's activations (the trace keeps only what was made before) */
         if (!x || (!joint && !in->trace && gv_dit_keep_only(g, mark, &x, 1) != 0)) return NULL;
+        if (in->progress) in->progress(in->progress_ctx, done0 + i + 1, done0 + L);
     }
     return head(g, m, x, e, grid);
 }

@@ -45,14 +45,16 @@ gv_tensor *gv_dit_tokens(gv_graph *g, gv_tensor *map);
  * everything else allocated after it, so a forward pass holds one block's activations at a
  * time instead of all of them. With gradients on it does nothing. Returns 0 or -1. */
 int gv_dit_keep_only(gv_graph *g, gv_arena_mark mark, gv_tensor **keep, int n);
-int gv_vace_hints(gv_graph *g, const gv_dit *m, gv_tensor *vace, gv_tensor *x0, gv_tensor *e0, gv_tensor *rope,
+int gv_vace_hints(gv_graph *g, const gv_dit *m, const gv_dit_inputs *in, gv_tensor *x0, gv_tensor *e0, gv_tensor *rope,
                   gv_tensor *ctx, gv_tensor **hints);
 
 /* Walks the network's tensors: with params, registers each (frozen) and stores it in its slot;
  * without, only checks names and shapes against the list. Then requires that every non-VAE
  * tensor of the list was bound exactly once. */
-int gv_dit_bind(gv_dit *m, const gv_model_config *c, const gv_weight_list *list, gv_params *params);
-/* Initial values of every registered tensor from its spec (docs/MODEL.md). */
+int gv_dit_bind(gv_dit *m, const gv_model_config *c, const gv_weight_list *list, gv_params *params,
+                unsigned empty_parts);
+/* Initial values of every registered tensor from its spec (docs/MODEL.md); tensors
+ * registered empty are left to their loader. */
 int gv_dit_init_values(gv_dit *m, uint64_t seed);
 
 #endif

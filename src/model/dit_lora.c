@@ -42,8 +42,11 @@ static int merge_block(gv_dit *m, gv_dit_block *b)
 {
     gv_dit_linear *l[12];
     int n = block_linears(b, l);
-    for (int i = 0; i < n; i++)
+    for (int i = 0; i < n; i++) {
+        gv_param *w = gv_params_of(&m->params, l[i]->w);
+        if (!w || gv_param_materialize(w) != 0) return -1; /* a BF16 weight changes: float32 from now */
         if (gv_lora_merge(l[i]->w, l[i]->lora_a, l[i]->lora_b, m->lora_scale) != 0) return -1;
+    }
     return 0;
 }
 

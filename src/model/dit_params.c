@@ -17,6 +17,7 @@ typedef struct {
     const gv_model_config *c;
     const gv_weight_list *list;
     gv_params *params;   /* NULL: check only */
+    unsigned empty_parts;/* tensors of these parts are registered without values (a loader fills them) */
     unsigned char *seen; /* one flag per list entry */
 } binder;
 
@@ -45,7 +46,8 @@ static int bind(binder *b, gv_tensor **slot, int rank, const int64_t *shape, con
     if (!b->params) return 0;
     int dims[GV_MAX_DIMS];
     for (int k = 0; k < rank; k++) dims[k] = (int)shape[k];
-    *slot = gv_params_add(b->params, name, rank, dims, 0);
+    *slot = (gv_module_part(w->module) & b->empty_parts) && !w->trainable ? gv_params_add_empty(b->params, name, rank, dims)
+                                                        : gv_params_add(b->params, name, rank, dims, 0);
     return *slot ? 0 : -1;
 }
 
@@ -176,9 +178,10 @@ static int bind_all(binder *b, gv_dit *m)
     return bind_camera(b, &m->camera);
 }
 
-int gv_dit_bind(gv_dit *m, const gv_model_config *c, const gv_weight_list *list, gv_params *params)
+int gv_dit_bind(gv_dit *m, const gv_model_config *c, const gv_weight_list *list, gv_params *params,
+                unsigned empty_parts)
 {
-    binder b = {c, list, params, calloc((size_t)list->n + 1, 1)};
+    binder b = {c, list, params, empty_parts, calloc((size_t)list->n + 1, 1)};
     if (!b.seen) return gv_fail("out of memory for the weight list flags");
     int rc = bind_all(&b, m);
     for (int i = 0; rc == 0 && i < list->n; i++) {
@@ -198,7 +201,7 @@ int gv_dit_check_names(const gv_model_config *cfg)
     if (gv_weight_list_build(&list, cfg) != 0) return -1;
     m.blocks = calloc((size_t)cfg->dit.num_layers, sizeof *m.blocks);
     m.vace_blocks = calloc((size_t)cfg->dit.n_vace_layers + 1, sizeof *m.vace_blocks);
-    int rc = m.blocks && m.vace_blocks ? gv_dit_bind(&m, cfg, &list, NULL) : gv_fail("out of memory for the blocks");
+    int rc = m.blocks && m.vace_blocks ? gv_dit_bind(&m, cfg, &list, NULL, 0) : gv_fail("out of memory for the blocks");
     free(m.blocks);
     free(m.vace_blocks);
     gv_weight_list_free(&list);
@@ -252,6 +255,7 @@ int gv_dit_init_values(gv_dit *m, uint64_t seed)
         gv_tensor *t = &m->params.items[i]->t;
         const gv_weight_spec *s = gv_weight_list_find(&m->weights, t->name);
         if (!s) return gv_fail("%s: no spec for tensor %s", m->cfg.name, t->name);
+        if (!t->data) continue; /* registered empty: a loader gives it its values */
         switch (s->init) {
         case GV_INIT_ZEROS: memset(t->data, 0, (size_t)t->numel * sizeof(float)); break;
         case GV_INIT_ONES: for (int64_t k = 0; k < t->numel; k++) t->data[k] = 1.0f; break;

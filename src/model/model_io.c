@@ -16,22 +16,96 @@ static void close_all(gv_st_file *files, int n)
     free(files);
 }
 
-/* Reads every tensor of the files that is a tensor of the network. */
-static int read_tensors(gv_dit *m, const gv_st_file *files, int n)
+/* A frozen linear weight of the base (DiT, VACE) stored in BF16 stays in the mapping. */
+static int keeps_bf16(const gv_dit *m, const gv_st_tensor *t, const gv_param *p)
 {
-    for (int f = 0; f < n; f++)
+    const gv_weight_spec *s = gv_weight_list_find(&m->weights, p->t.name);
+    return t->dtype == GV_ST_BF16 && !p->trainable && p->t.ndim == 2 && s &&
+           (gv_module_part(s->module) & (GV_PART_DIT | GV_PART_VACE));
+}
+
+int gv_dit_read_param(gv_dit *m, const gv_st_file *f, gv_param *p, int *kept)
+{
+    const gv_st_tensor *t;
+    int64_t shape[GV_MAX_DIMS];
+    *kept = 0;
+    for (int k = 0; k < p->t.ndim; k++) shape[k] = p->t.shape[k];
+    if (gv_st_get(f, p->t.name, -1, shape, p->t.ndim, &t) != 0) return -1;
+    if (keeps_bf16(m, t, p)) { /* its values are checked finite at each use (gv_tensor_values) */
+        *kept = 1;
+        return gv_param_set_bf16(p, t->data, 1);
+    }
+    if (gv_param_alloc(p) != 0 || gv_st_read_f32(f, p->t.name, p->t.data, shape, p->t.ndim) != 0) return -1;
+    for (int64_t k = 0; k < p->t.numel; k++) /* DESIGN 4: a NaN is bad input, named with its file */
+        if (!isfinite(p->t.data[k]))
+            return gv_fail("%s: %s: value element %lld is %g", f->path, p->t.name, (long long)k, (double)p->t.data[k]);
+    return 0;
+}
+
+int gv_dit_keep_file(gv_dit *m, gv_st_file *f)
+{
+    gv_st_file *more = realloc(m->mapped, (size_t)(m->n_mapped + 1) * sizeof *more);
+    if (!more) return gv_fail("%s: out of memory", f->path);
+    m->mapped = more;
+    m->mapped[m->n_mapped++] = *f;
+    memset(f, 0, sizeof *f);
+    return 0;
+}
+
+int gv_dit_check_loaded(const gv_dit *m)
+{
+    for (int i = 0; i < m->params.n; i++)
+        if (!m->params.items[i]->t.data && !m->params.items[i]->t.bf16)
+            return gv_fail("%s: tensor %s was not loaded", m->cfg.name, m->params.items[i]->t.name);
+    return 0;
+}
+
+int64_t gv_dit_bf16_bytes(const gv_dit *m, int *n_tensors)
+{
+    int64_t bytes = 0;
+    int n = 0;
+    for (int i = 0; i < m->params.n; i++)
+        if (m->params.items[i]->t.bf16) bytes += 2 * m->params.items[i]->t.numel, n++;
+    if (n_tensors) *n_tensors = n;
+    return bytes;
+}
+
+gv_tensor *gv_dit_text_input(const gv_dit *m, gv_graph *g, int batch)
+{
+    const gv_dit_config *d = &m->cfg.dit;
+    gv_tensor *t = gv_tensor_new(g, 3, (int[]){batch, d->text_len, d->text_dim});
+    size_t row = (size_t)d->text_len * d->text_dim;
+    for (int b = 0; t && m->text && b < batch; b++) memcpy(t->data + b * row, m->text, row * sizeof(float));
+    return t;
+}
+
+int gv_dit_set_text(gv_dit *m, const float *context)
+{
+    free(m->text);
+    m->text = NULL;
+    if (!context) return 0;
+    if (!m->cfg.dit.cross_attn) return gv_fail("%s: a text context for a network without cross-attention", m->cfg.name);
+    size_t n = (size_t)m->cfg.dit.text_len * m->cfg.dit.text_dim;
+    if (!(m->text = malloc(n * sizeof(float)))) return gv_fail("out of memory for the text context");
+    memcpy(m->text, context, n * sizeof(float));
+    return 0;
+}
+
+/* Reads every tensor of the files that is a tensor of the network; files holding BF16
+ * weights it keeps are handed to the model. */
+static int read_tensors(gv_dit *m, gv_st_file *files, int n)
+{
+    for (int f = 0; f < n; f++) {
+        int kept_any = 0;
         for (int i = 0; i < files[f].n_tensors; i++) {
-            const gv_st_tensor *t = &files[f].tensors[i];
-            gv_param *p = gv_params_find(&m->params, t->name);
+            gv_param *p = gv_params_find(&m->params, files[f].tensors[i].name);
             if (!p) continue; /* a VAE tensor of a combined checkpoint */
-            int64_t shape[GV_MAX_DIMS];
-            for (int k = 0; k < p->t.ndim; k++) shape[k] = p->t.shape[k];
-            if (gv_st_read_f32(&files[f], t->name, p->t.data, shape, p->t.ndim) != 0) return -1;
-            for (int64_t k = 0; k < p->t.numel; k++) /* DESIGN 4: a NaN is bad input, named with its file */
-                if (!isfinite(p->t.data[k]))
-                    return gv_fail("%s: %s: value element %lld is %g", files[f].path, t->name, (long long)k,
-                                   (double)p->t.data[k]);
+            int kept = 0;
+            if (gv_dit_read_param(m, &files[f], p, &kept) != 0) return -1;
+            kept_any |= kept;
         }
+        if (kept_any && gv_dit_keep_file(m, &files[f]) != 0) return -1;
+    }
     return 0;
 }
 
@@ -54,6 +128,7 @@ int gv_dit_load(gv_dit *m, const char *const *paths, int n_paths, unsigned parts
         gv_weight_report_free(&r);
     }
     if (rc == 0) rc = read_tensors(m, files, n_paths);
+    if (rc == 0) rc = gv_dit_check_loaded(m); /* a tensor registered without values must have come from a file */
     close_all(files, n_paths);
     return rc;
 }
@@ -83,7 +158,8 @@ int gv_dit_save(const gv_dit *m, const char *path, unsigned parts)
         if (!s || !(gv_module_part(s->module) & parts)) continue;
         int64_t shape[GV_MAX_DIMS];
         for (int k = 0; k < t->ndim; k++) shape[k] = t->shape[k];
-        rc = gv_st_add_f32(&b, t->name, GV_ST_F32, shape, t->ndim, t->data);
+        rc = t->data ? gv_st_add_f32(&b, t->name, GV_ST_F32, shape, t->ndim, t->data)
+                     : gv_st_add_raw(&b, t->name, GV_ST_BF16, shape, t->ndim, t->bf16); /* as loaded */
         n++;
     }
     if (rc == 0 && n == 0) rc = gv_fail("%s: the model has no tensors of the requested parts", path);

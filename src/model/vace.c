@@ -10,9 +10,11 @@
 
 /* Reference 3.2: c = before_proj(vace_patch_embedding(context)) + x0; every VACE block (the
  * main block's math, same e0, text and RoPE) updates c and after_proj(c) is its hint. */
-int gv_vace_hints(gv_graph *g, const gv_dit *m, gv_tensor *vace, gv_tensor *x0, gv_tensor *e0, gv_tensor *rope,
+int gv_vace_hints(gv_graph *g, const gv_dit *m, const gv_dit_inputs *in, gv_tensor *x0, gv_tensor *e0, gv_tensor *rope,
                   gv_tensor *ctx, gv_tensor **hints)
 {
+    gv_tensor *vace = in->vace;
+    const int total = m->cfg.dit.n_vace_layers + m->cfg.dit.num_layers;
     const int *p = m->cfg.dit.patch_size;
     gv_conv_geom geom = {{p[0], p[1], p[2]}, {0, 0, 0, 0, 0, 0}};
     gv_tensor *c = gv_dit_tokens(g, gv_conv3d(g, vace, m->vace_patch_w, m->vace_patch_b, &geom));
@@ -25,6 +27,7 @@ int gv_vace_hints(gv_graph *g, const gv_dit *m, gv_tensor *vace, gv_tensor *x0, 
         gv_tensor *keep[2] = {c, hints[j]}; /* inference: one block's activations at a time */
         if (gv_dit_keep_only(g, mark, keep, 2) != 0) return -1;
         c = keep[0], hints[j] = keep[1];
+        if (in->progress) in->progress(in->progress_ctx, j + 1, total);
     }
     return 0;
 }

@@ -1,6 +1,7 @@
 /* Matrix products through CBLAS sgemm: batched matmul with transposes, and the linear layer
  * in PyTorch's weight layout. */
 #include <cblas.h>
+#include <stdlib.h>
 
 #include "nn/nn_internal.h"
 
@@ -111,10 +112,13 @@ gv_tensor *gv_matmul(gv_graph *g, gv_tensor *a, gv_tensor *b, int trans_a, int t
 int gv_linear_op_forward(gv_graph *g, gv_tensor *out)
 {
     int R = out->iparam[0], in = out->iparam[1], n_out = out->iparam[2];
-    const float *x = out->src[0]->data, *W = out->src[1]->data;
+    float *scratch; /* a bfloat16 weight's float32 values, for this product only */
+    const float *x = out->src[0]->data, *W = gv_tensor_values(out->src[1], &scratch);
     float *y = out->data;
+    if (!W) return -1;
     cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasTrans, R, n_out, in, 1.0f, x, in, W, in, 0.0f,
                 y, n_out);
+    free(scratch);
     if (out->n_src > 2) {
         const float *bias = out->src[2]->data;
 #pragma omp parallel for schedule(static) if ((int64_t)R * n_out >= GV_OMP_MIN)
@@ -133,9 +137,14 @@ int gv_linear_op_backward(gv_graph *g, gv_tensor *out)
     int R = out->iparam[0], in = out->iparam[1], n_out = out->iparam[2];
     gv_tensor *x = out->src[0], *W = out->src[1];
     const float *dy = out->grad;
-    if (gv_wants_grad(out, 0))
+    if (gv_wants_grad(out, 0)) { /* a bfloat16 weight is converted again: it was not kept */
+        float *scratch;
+        const float *Wv = gv_tensor_values(W, &scratch);
+        if (!Wv) return -1;
         cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, R, in, n_out, 1.0f, dy, n_out,
-                    W->data, in, 1.0f, x->grad, in);
+                    Wv, in, 1.0f, x->grad, in);
+        free(scratch);
+    }
     if (gv_wants_grad(out, 1))
         cblas_sgemm(CblasRowMajor, CblasTrans, CblasNoTrans, n_out, in, R, 1.0f, dy, n_out,
                     x->data, in, 1.0f, W->grad, in);

@@ -42,6 +42,7 @@ gv_param *gv_params_of(const gv_params *ps, const gv_tensor *t)
 int gv_param_set_trainable(gv_param *p, int trainable)
 {
     size_t bytes = (size_t)p->t.numel * sizeof(float);
+    if (trainable && !p->t.data && gv_param_materialize(p) != 0) return -1; /* trained in float32 */
     if (trainable && !p->trainable) {
         p->t.grad = calloc(1, bytes);
         p->m = calloc(1, bytes);

@@ -25,6 +25,12 @@ static gv_tensor *new_node(gv_graph *g, gv_op op, int ndim, const int *shape, in
 {
     for (int i = 0; i < n_src; i++)
         if (!src[i]) return NULL; /* an earlier op failed: keep its message */
+    for (int i = 0; i < n_src; i++)
+        if (!src[i]->data && !(op == GV_OP_LINEAR && i == 1)) { /* bf16 weights: linear layers only */
+            gv_fail("%s: input %s has no float32 values (a bfloat16 weight takes a linear layer only)", gv_op_name(op),
+                    src[i]->name ? src[i]->name : "tensor");
+            return NULL;
+        }
     if (ndim < 1 || ndim > GV_MAX_DIMS) {
         gv_fail("%s: output would have %d dimensions (1 to %d allowed)", gv_op_name(op), ndim,
                 GV_MAX_DIMS);

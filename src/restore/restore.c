@@ -1,6 +1,7 @@
 /* The network's velocity on one clip for the samplers: the clip's VACE context, its camera
- * stream computed once (DESIGN 6.5: it depends neither on x_t nor on t) and a zero text
- * context for configs with cross-attention; and the restored latent of a clip. */
+ * stream computed once (DESIGN 6.5: it depends neither on x_t nor on t) and, for configs with
+ * cross-attention, the model's text context (the prompt's, or zeros: gv_dit_text_input); and
+ * the restored latent of a clip. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -25,10 +26,6 @@ int gv_restore_net_init(gv_restore_net *r, gv_dit *m, const gv_clip_latents *l, 
                        l->vace_dim, m->cfg.name, d->in_dim, d->vace_in_dim);
     int camera = m->cfg.variant.camera != GV_CAMERA_NONE;
     if (camera && !l->plucker) return gv_fail("restore: %s needs the clip's Plücker field", m->cfg.name);
-    if (d->cross_attn) {
-        r->text = calloc((size_t)l->batch * d->text_len * d->text_dim, sizeof *r->text);
-        if (!r->text) return gv_fail("restore: out of memory");
-    }
     if (camera && use_camera_cache) {
         gv_graph g;
         gv_graph_init(&g, 0);
@@ -47,7 +44,6 @@ void gv_restore_net_free(gv_restore_net *r)
 {
     if (r->has_cache) gv_dit_camera_cache_free(&r->cache);
     gv_graph_free(&r->graph);
-    free(r->text);
     memset(r, 0, sizeof *r);
 }
 
@@ -67,7 +63,7 @@ int gv_restore_net_velocity(void *ctx, const float *x, double sigma, float *v)
     in.latent = gv_tensor_from(g, 5, zs, x);
     in.timestep = timestep;
     in.vace = d->n_vace_layers ? gv_tensor_from(g, 5, vs, l->vace) : NULL;
-    if (r->text) in.text = gv_tensor_from(g, 3, (int[]){l->batch, d->text_len, d->text_dim}, r->text);
+    if (d->cross_attn && !(in.text = gv_dit_text_input(r->model, g, l->batch))) return -1;
     if (r->has_cache) {
         in.camera_cache = &r->cache;
     } else if (r->model->cfg.variant.camera != GV_CAMERA_NONE) {

@@ -89,6 +89,10 @@ int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state 
     meta_text(f, "clips", s->clips, sizeof s->clips);
     meta_text(f, "data", s->data, sizeof s->data);
     meta_text(f, "training", s->training, sizeof s->training);
+    meta_text(f, "text_context", s->text.path, sizeof s->text.path);
+    meta_text(f, "text_prompt", s->text.prompt, sizeof s->text.prompt);
+    meta_text(f, "text_encoder", s->text.encoder, sizeof s->text.encoder);
+    meta_text(f, "text_tokenizer", s->text.tokenizer, sizeof s->text.tokenizer);
     return 0;
 }
 
@@ -131,24 +135,26 @@ int gv_dit_param_is_adapter(const gv_dit *m, const char *name)
     return s && s->trainable;
 }
 
-/* Reads every tensor of m from the file; a base may lack its (zero-start) LoRA adapters. */
-static int load_network(const gv_st_file *f, gv_dit *m, const gv_train_state *s)
+/* Reads every tensor of m from the file; a base may lack its (zero-start) LoRA adapters.
+ * BF16 base weights stay in the file's mapping, which the model then keeps open. */
+static int load_network(gv_st_file *f, gv_dit *m, const gv_train_state *s)
 {
+    int kept_any = 0;
     for (int i = 0; i < m->params.n; i++) {
-        gv_tensor *t = &m->params.items[i]->t;
-        if (!gv_st_find(f, t->name) && !strcmp(s->kind, "base") && gv_dit_param_part(m, t->name) == GV_PART_LORA)
+        gv_param *p = m->params.items[i];
+        if (!gv_st_find(f, p->t.name) && !strcmp(s->kind, "base") && gv_dit_param_part(m, p->t.name) == GV_PART_LORA)
             continue;
-        int64_t shape[GV_MAX_DIMS];
-        for (int k = 0; k < t->ndim; k++) shape[k] = t->shape[k];
-        if (gv_st_read_f32(f, t->name, t->data, shape, t->ndim)) return -1;
+        int kept = 0;
+        if (gv_dit_read_param(m, f, p, &kept)) return -1;
+        kept_any |= kept;
     }
-    if (gv_params_check_finite(&m->params, 0)) return gv_fail_context("%s", f->path);
-    return 0;
+    if (gv_dit_check_loaded(m)) return gv_fail_context("%s", f->path);
+    return kept_any ? gv_dit_keep_file(m, f) : 0;
 }
 
-/* The VAE file named vae (metadata "vae" of ckpt): as written, else the same relative path or
- * file name in the checkpoint's folder, into out. 1 when found, else 0. */
-static int find_vae(const char *ckpt, const char *vae, char *out, size_t size)
+/* The file named vae (metadata "vae" of ckpt, or another file it names): as written, else the
+ * same relative path or file name in the checkpoint's folder, into out. 1 when found, else 0. */
+int gv_checkpoint_find_beside(const char *ckpt, const char *vae, char *out, size_t size)
 {
     snprintf(out, size, "%s", vae);
     if (*vae && gv_file_exists(out)) return 1;
@@ -165,7 +171,7 @@ static int find_vae(const char *ckpt, const char *vae, char *out, size_t size)
 int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out, size_t size)
 {
     if (!*s->vae) return gv_fail("%s: metadata vae is missing and the file holds no VAE tensors", ckpt);
-    if (find_vae(ckpt, s->vae, out, size)) return 0;
+    if (gv_checkpoint_find_beside(ckpt, s->vae, out, size)) return 0;
     return gv_fail("%s: the VAE it names, %s, is not found (neither as written nor beside the checkpoint)", ckpt, s->vae);
 }
 
@@ -177,13 +183,13 @@ static int load_vae(const gv_st_file *f, gv_restorer *r)
     char sum[64], named[4200];
     struct stat st;
     uint64_t bytes = f->data_size;
-    if (find_vae(f->path, r->state.vae, named, sizeof named) && stat(named, &st) == 0 &&
+    if (gv_checkpoint_find_beside(f->path, r->state.vae, named, sizeof named) && stat(named, &st) == 0 &&
         (uint64_t)st.st_size > bytes)
         bytes = (uint64_t)st.st_size;
     if (gv_weights_fit(&r->cfg, GV_PART_VAE, bytes, f->path)) return -1;
     if (gv_vae_init(&r->vae, &r->cfg, 0, 0)) return -1;
     if (r->vae.params.n > 0 && gv_st_find(f, r->vae.params.items[0]->t.name)) {
-        if (!find_vae(f->path, r->state.vae, r->vae_path, sizeof r->vae_path))
+        if (!gv_checkpoint_find_beside(f->path, r->state.vae, r->vae_path, sizeof r->vae_path))
             snprintf(r->vae_path, sizeof r->vae_path, "%s", f->path);
         return gv_vae_load(&r->vae, f->path, 1);
     }
@@ -206,9 +212,12 @@ int gv_restorer_load(const char *path, gv_restorer *r)
         gv_st_close(&f);
         return gv_scene_checkpoint_load(path, r);
     }
-    if (rc == 0) rc = gv_dit_init(&r->net, &r->cfg, 0);
+    /* the DiT and VACE come from the file: no values of their own first (no float32 copy of a
+     * BF16 base) */
+    if (rc == 0) rc = gv_dit_init_parts(&r->net, &r->cfg, 0, GV_PART_DIT | GV_PART_VACE);
     if (rc == 0) rc = load_network(&f, &r->net, &r->state);
     if (rc == 0) rc = load_vae(&f, r);
+    if (rc == 0) rc = gv_checkpoint_text(path, &r->state, &r->net);
     gv_st_close(&f);
     if (rc) gv_restorer_free(r);
     return rc;

@@ -32,6 +32,7 @@ static int add_tensor(gv_st_builder *b, const char *prefix, const gv_tensor *t, 
     int64_t shape[GV_MAX_DIMS];
     for (int k = 0; k < t->ndim; k++) shape[k] = t->shape[k];
     snprintf(name, sizeof name, "%s%s", prefix, t->name);
+    if (!data) return gv_st_add_raw(b, name, GV_ST_BF16, shape, t->ndim, t->bf16); /* a BF16 base weight, as loaded */
     return gv_st_add_f32(b, name, GV_ST_F32, shape, t->ndim, data);
 }
 
@@ -53,11 +54,13 @@ int gv_ckpt_add_state(gv_st_builder *b, const gv_dit *m, const gv_model_config *
     snprintf(num[8], 40, "%.17g", s->loss); /* exact: a resumed run continues the average from it */
     const char *keys[] = {"format", "format_version", "kind", "config", "parts", "step", "steps", "adamw_step",
                           "data_position", "clips_used", "clips_skipped", "seed", "seconds", "loss", "vae",
-                          "vae_checksum", "base", "clips", "data", "training", "rng"};
+                          "vae_checksum", "base", "clips", "data", "training", "rng", "text_context", "text_prompt",
+                          "text_encoder", "text_tokenizer"};
     const char *values[] = {GV_CHECKPOINT_FORMAT, version, s->kind, json, parts_text(m, adapters_only, parts, sizeof parts),
                             num[0], num[1], num[2], num[3], num[4], num[5], num[6], num[7], num[8], s->vae,
                             s->vae_checksum, s->base, s->clips, s->data, s->training,
-                            "philox4x32-10: step s draws its clips' timesteps and noise from the stream (seed, s)"};
+                            "philox4x32-10: step s draws its clips' timesteps and noise from the stream (seed, s)",
+                            s->text.path, s->text.prompt, s->text.encoder, s->text.tokenizer};
     int rc = 0;
     for (int i = 0; rc == 0 && i < (int)(sizeof keys / sizeof keys[0]); i++) rc = gv_st_add_metadata(b, keys[i], values[i]);
     free(json);
@@ -99,6 +102,7 @@ int gv_checkpoint_restore(const char *path, gv_dit *m, gv_train_state *s)
     int rc = gv_ckpt_read_meta(&f, &cfg, s);
     for (int i = 0; rc == 0 && i < m->params.n; i++) {
         gv_param *p = m->params.items[i];
+        if (p->t.bf16) continue; /* a frozen BF16 base weight, mapped from the base this run loaded */
         rc = read_tensor(&f, "", &p->t, p->t.data);
         if (rc == 0 && p->trainable && p->m) rc = read_tensor(&f, "adamw.m.", &p->t, p->m);
         if (rc == 0 && p->trainable && p->v) rc = read_tensor(&f, "adamw.v.", &p->t, p->v);
@@ -137,14 +141,19 @@ int gv_checkpoint_load_base(const char *path, gv_dit *m, int take_camera, int *c
         gv_config_describe(&m->cfg, want, sizeof want);
         rc = gv_fail("%s: the base is another network (%s) than the config (%s)", path, have, want);
     }
+    int kept_any = 0;
     int same_camera = rc == 0 && take_camera && cfg.variant.camera == m->cfg.variant.camera && cfg.variant.camera != GV_CAMERA_NONE;
     for (int i = 0; rc == 0 && i < m->params.n; i++) {
         gv_param *p = m->params.items[i];
         if (!wanted(m, &f, p->t.name, same_camera)) continue;
-        rc = read_tensor(&f, "", &p->t, p->t.data);
+        int kept = 0;
+        rc = gv_dit_read_param(m, &f, p, &kept);
+        kept_any |= kept;
         if (rc == 0 && gv_dit_param_part(m, p->t.name) == GV_PART_CAMERA) *camera_loaded = 1;
     }
-    if (rc == 0 && gv_params_check_finite(&m->params, 0)) rc = gv_fail_context("%s", path);
+    if (rc == 0 && gv_dit_check_loaded(m)) rc = gv_fail_context("%s", path);
+    if (rc == 0) rc = gv_checkpoint_text(path, &s, m);
+    if (rc == 0 && kept_any) rc = gv_dit_keep_file(m, &f); /* BF16 base weights point into it */
     gv_st_close(&f);
     return rc;
 }

@@ -142,7 +142,8 @@ static int add_dit(const gv_st_file *f, const gv_weight_list *l, gv_st_builder *
 /* The VAE is named as written (out_dir/vae.safetensors), as pretraining names its --vae;
  * gv_checkpoint_vae_path also finds it beside the checkpoint when the folder moves. */
 static int add_metadata(gv_st_builder *b, const gv_model_config *cfg, const char *vae, const char *vae_checksum,
-                        const char *from, const char *text_context, const char *prompt)
+                        const char *from, const char *text_context, const char *prompt, const char *encoder,
+                        const char *tokenizer)
 {
     char *json = gv_model_config_to_json(cfg), version[8], training[GV_CHECKPOINT_TEXT];
     if (!json) return gv_fail("out of memory for the config");
@@ -151,9 +152,10 @@ static int add_metadata(gv_st_builder *b, const gv_model_config *cfg, const char
     const char *keys[] = {"format", "format_version", "kind", "config", "parts", "step", "steps", "adamw_step",
                           "data_position", "clips_used", "clips_skipped", "seed", "seconds", "loss", "vae",
                           "vae_checksum", "base", "clips", "data", "training", "imported_from", "text_context",
-                          "text_prompt"};
+                          "text_prompt", "text_encoder", "text_tokenizer"};
     const char *values[] = {GV_CHECKPOINT_FORMAT, version, "base", json, "dit,vace", "0", "0", "0", "0", "0", "0", "0",
-                            "0", "0", vae, vae_checksum, "", "", "", training, from, text_context, prompt};
+                            "0", "0", vae, vae_checksum, "", "", "", training, from, text_context, prompt,
+                            encoder, tokenizer};
     int rc = 0;
     for (size_t i = 0; rc == 0 && i < sizeof keys / sizeof *keys; i++) rc = gv_st_add_metadata(b, keys[i], values[i]);
     free(json);
@@ -176,67 +178,6 @@ static int import_vae(const char *from, const gv_model_config *cfg, const char *
         rc = gv_vae_save(&vae, cfg, path, keys, values, 1);
     }
     gv_vae_free(&vae);
-    return rc;
-}
-
-/* FNV-1a 64 of a file's bytes (the tokenizer model: a few MB). */
-static int file_checksum(const char *path, char *out, size_t size)
-{
-    char *data = NULL;
-    size_t n = 0;
-    if (gv_read_file(path, &data, &n)) return -1;
-    uint64_t h = 0xcbf29ce484222325ull;
-    for (size_t i = 0; i < n; i++) h = (h ^ (unsigned char)data[i]) * 0x100000001b3ull;
-    free(data);
-    snprintf(out, size, "fnv1a64:%016llx", (unsigned long long)h);
-    return 0;
-}
-
-/* The prompt's text context, computed once and cached beside the weights, keyed in its
- * metadata by the prompt, the encoder file (path and size: hashing 11 GB at every import
- * would cost minutes) and the tokenizer's checksum. */
-static int import_text(const gv_release_files *files, const gv_model_config *cfg, const char *prompt, const char *path,
-                       gv_import_summary *s)
-{
-    gv_st_file f;
-    gv_umt5_config c;
-    gv_tokenizer *t = NULL;
-    const gv_dit_config *d = &cfg->dit;
-    float *context = malloc((size_t)d->text_len * d->text_dim * sizeof *context);
-    int32_t *ids = malloc((size_t)d->text_len * sizeof *ids);
-    if (!context || !ids) {
-        free(context), free(ids);
-        return gv_fail("out of memory for the text context");
-    }
-    int rc = gv_weights_open(&f, files->t5), opened = rc == 0;
-    if (rc == 0) rc = gv_umt5_config_from_file(&f, &c);
-    if (rc == 0 && c.dim != d->text_dim)
-        rc = gv_fail("%s: the text encoder gives %d values per token, the config %s takes text_dim %d", files->t5, c.dim,
-                     cfg->name, d->text_dim);
-    if (rc == 0) rc = gv_tokenizer_open(&t, files->tokenizer);
-    int n = rc == 0 ? gv_umt5_text_context(&c, &f, t, prompt, d->text_len, context, ids) : -1;
-    if (rc == 0 && n < 0) rc = -1;
-    char checksum[48], bytes[32], *token_list = NULL;
-    if (rc == 0) rc = file_checksum(files->tokenizer, checksum, sizeof checksum);
-    if (rc == 0) {
-        snprintf(bytes, sizeof bytes, "%llu", (unsigned long long)f.file_size);
-        size_t cap = (size_t)n * 12 + 4, len = 0;
-        if (!(token_list = malloc(cap))) rc = gv_fail("out of memory");
-        for (int i = 0; rc == 0 && i < n; i++) len += (size_t)snprintf(token_list + len, cap - len, "%s%d", i ? ", " : "[", ids[i]);
-        if (rc == 0) snprintf(token_list + len, cap - len, "]");
-    }
-    gv_st_builder b;
-    gv_st_builder_init(&b);
-    if (rc == 0) rc = gv_st_add_f32(&b, "text_context", GV_ST_F32, (int64_t[]){d->text_len, d->text_dim}, 2, context);
-    const char *keys[] = {"format", "prompt", "tokens", "text_encoder", "text_encoder_bytes", "tokenizer", "tokenizer_checksum"};
-    const char *values[] = {"gaussvid-text-context", prompt, token_list, files->t5, bytes, files->tokenizer, checksum};
-    for (size_t i = 0; rc == 0 && i < sizeof keys / sizeof *keys; i++) rc = gv_st_add_metadata(&b, keys[i], values[i]);
-    if (rc == 0) rc = gv_st_write(&b, path);
-    if (rc == 0) s->text_tokens = n;
-    gv_st_builder_free(&b);
-    gv_tokenizer_close(t);
-    if (opened) gv_st_close(&f);
-    free(context), free(ids), free(token_list);
     return rc;
 }
 
@@ -277,9 +218,12 @@ int gv_model_import(const gv_release_files *files, const gv_model_config *cfg, c
     if (rc == 0) rc = gv_path_join(text_path, sizeof text_path, out_dir, "text_context.safetensors");
     int wrote_vae = 0, wrote_base = 0, wrote_text = 0;
     if (rc == 0) rc = import_vae(files->vae, &base, vae_tmp, summary), wrote_vae = rc == 0;
-    if (rc == 0 && text) rc = import_text(files, &base, prompt, text_tmp, summary), wrote_text = rc == 0;
+    if (rc == 0 && text)
+        rc = gv_text_context_write(files->t5, files->tokenizer, &base, prompt, text_tmp, &summary->text_tokens),
+        wrote_text = rc == 0;
     if (rc == 0)
-        rc = add_metadata(&b, &base, vae_path, summary->vae_checksum, files->dit, text ? text_path : "", text ? prompt : "");
+        rc = add_metadata(&b, &base, vae_path, summary->vae_checksum, files->dit, text ? text_path : "", text ? prompt : "",
+                          text ? files->t5 : "", text ? files->tokenizer : "");
     if (rc == 0) rc = gv_st_write(&b, base_tmp), wrote_base = rc == 0;
     if (rc == 0 && (rename(vae_tmp, vae_path) != 0 || (text && rename(text_tmp, text_path) != 0) ||
                     rename(base_tmp, base_path) != 0))

@@ -83,9 +83,17 @@ int gv_train_model(const gv_model_config *cfg, gv_objective objective, const cha
     if (pretrain) net.lora.rank = 0;
     snprintf(meta->kind, sizeof meta->kind, "%s", pretrain ? "base" : "finetune");
     if (base) snprintf(meta->base, sizeof meta->base, "%s", base);
-    if (gv_dit_init(m, &net, seed) || (base && gv_checkpoint_load_base(base, m, !fresh_camera, &camera_loaded)) ||
+    /* with a base, its DiT and VACE come from the file (a BF16 base stays BF16, mapped) */
+    if (gv_dit_init_parts(m, &net, seed, base ? GV_PART_DIT | GV_PART_VACE : 0) ||
+        (base && gv_checkpoint_load_base(base, m, !fresh_camera, &camera_loaded)) ||
         gv_dit_set_train_mode(m, pretrain ? GV_DIT_FULL : GV_DIT_FINETUNE))
         return -1;
+    if (base) { /* the fine-tuned checkpoint names its base's text context */
+        gv_model_config c;
+        gv_train_state s;
+        if (gv_checkpoint_read_info(base, &c, &s)) return -1;
+        meta->text = s.text;
+    }
     if (gv_params_count(&m->params, 1) == 0)
         return gv_fail("%s: nothing to train in this variant (no LoRA adapters, no camera encoder)", cfg->name);
     if (base && cfg->variant.camera != GV_CAMERA_NONE)

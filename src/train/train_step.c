@@ -86,10 +86,7 @@ static int side_inputs(gv_dit *m, gv_graph *g, const gv_clip_latents *l, int ren
         if (!in->vace) return -1;
         gv_objective_vace(l, renders, in->vace->data);
     }
-    if (c->dit.cross_attn) { /* no prompts: a zero text context (condition.h) */
-        in->text = gv_tensor_new(g, 3, (int[]){B, c->dit.text_len, c->dit.text_dim});
-        if (!in->text) return -1;
-    }
+    if (c->dit.cross_attn && !(in->text = gv_dit_text_input(m, g, B))) return -1; /* the prompt's, or zeros */
     if (c->variant.camera != GV_CAMERA_NONE) {
         if (!l->plucker) return gv_fail("clip n%d: no Plücker field (prepared without cameras)", l->n);
         in->plucker = gv_tensor_from(g, 5, (int[]){B, 6, l->plucker_frames, l->height, l->width}, l->plucker);
