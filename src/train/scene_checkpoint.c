@@ -213,7 +213,7 @@ static int rebuild_for_variant(const char *base, const gv_model_config *cfg, gv_
 {
     int camera_loaded;
     gv_dit_free(net);
-    return gv_dit_init(net, cfg, 0) || gv_checkpoint_load_base(base, net, 1, &camera_loaded) ? -1 : 0;
+    return gv_dit_init_parts(net, cfg, 0, GV_PART_DIT | GV_PART_VACE) || gv_checkpoint_load_base(base, net, 1, &camera_loaded) ? -1 : 0;
 }
 
 int gv_scene_checkpoint_load(const char *path, gv_restorer *r)
