@@ -151,6 +151,20 @@ static int png_write_body(png_context *ctx, const gv_image *img)
     return 0;
 }
 
+/* The whole PNG of img through ctx->f (a file or a memory stream); errno is the stream's. */
+static int png_write_stream(png_context *ctx, const gv_image *img)
+{
+    ctx->png = png_create_write_struct(PNG_LIBPNG_VER_STRING, ctx, png_error_to_context, png_warning_ignored);
+    ctx->info = ctx->png ? png_create_info_struct(ctx->png) : NULL;
+    int rc = -1;
+    if (!ctx->png || !ctx->info) snprintf(ctx->message, sizeof ctx->message, "out of memory");
+    else rc = png_write_body(ctx, img);
+    int err = errno;
+    if (ctx->png) png_destroy_write_struct(&ctx->png, ctx->info ? &ctx->info : NULL);
+    errno = err;
+    return rc;
+}
+
 int gv_image_write_png(const char *path, const gv_image *img)
 {
     if (!img->pixels || img->width <= 0 || img->height <= 0 || img->channels < 1 ||
@@ -160,14 +174,8 @@ int gv_image_write_png(const char *path, const gv_image *img)
     gv_atomic_file af;
     if (gv_atomic_open(&af, path) != 0) return -1;
     png_context ctx = {.path = path, .f = af.f};
-    ctx.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &ctx, png_error_to_context,
-                                      png_warning_ignored);
-    ctx.info = ctx.png ? png_create_info_struct(ctx.png) : NULL;
-    int rc = -1;
-    if (!ctx.png || !ctx.info) snprintf(ctx.message, sizeof ctx.message, "out of memory");
-    else rc = png_write_body(&ctx, img);
+    int rc = png_write_stream(&ctx, img);
     int err = errno, write_failed = rc != 0 && ferror(af.f); /* a full disk: say so, not libpng's "Write Error" */
-    if (ctx.png) png_destroy_write_struct(&ctx.png, ctx.info ? &ctx.info : NULL);
     if (rc != 0) {
         gv_atomic_abort(&af);
         if (write_failed) return gv_fail("%s: write error: %s", path, strerror(err));
@@ -189,13 +197,7 @@ int gv_image_encode_png(const gv_image *img, uint8_t **bytes, size_t *size)
     FILE *f = open_memstream(&buffer, &length); /* libpng writes through stdio, here into memory */
     if (!f) return gv_fail("cannot encode a PNG in memory: %s", strerror(errno));
     png_context ctx = {.path = "(memory)", .f = f};
-    ctx.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &ctx, png_error_to_context,
-                                      png_warning_ignored);
-    ctx.info = ctx.png ? png_create_info_struct(ctx.png) : NULL;
-    int rc = -1;
-    if (!ctx.png || !ctx.info) snprintf(ctx.message, sizeof ctx.message, "out of memory");
-    else rc = png_write_body(&ctx, img);
-    if (ctx.png) png_destroy_write_struct(&ctx.png, ctx.info ? &ctx.info : NULL);
+    int rc = png_write_stream(&ctx, img);
     if (fclose(f) != 0 && rc == 0) {
         rc = -1;
         snprintf(ctx.message, sizeof ctx.message, "out of memory");
