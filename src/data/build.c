@@ -83,7 +83,7 @@ static int same_params(const char *dir, const gv_dataset_params *old, const gv_d
     return 0;
 }
 
-static int prepare_out_dir(const char *out)
+int data_prepare_out_dir(const char *out)
 {
     static const char *subdirs[] = {"", "clips", "runs"};
     for (int i = 0; i < 3; i++) {
@@ -288,7 +288,7 @@ static int build_runs(const gv_dataset_build_options *opt, const scene_set *s, g
 static int open_out_dir(const gv_dataset_build_options *opt, gv_manifest *m)
 {
     int found, root = gv_dist_is_root();
-    if ((root && prepare_out_dir(opt->out_dir) != 0) || gv_manifest_read(opt->out_dir, m, &found) != 0) return -1;
+    if ((root && data_prepare_out_dir(opt->out_dir) != 0) || gv_manifest_read(opt->out_dir, m, &found) != 0) return -1;
     /* A folder without a finished run takes this build's options. */
     if (found && m->n_runs > 0 && same_params(opt->out_dir, &m->params, &opt->params) != 0) return -1;
     m->params = opt->params;

@@ -17,6 +17,9 @@ typedef struct {
 /* Trains, renders and measures every held-out frame, writes the clips and the run record,
  * then adds the run to m and rewrites the manifest (the commit point). *record receives
  * what was measured (free with gv_run_record_free). */
+/* The dataset folder, its clips/ and runs/, made if missing and swept of the temporaries an
+ * interrupted build left (said when any). */
+int data_prepare_out_dir(const char *out);
 int data_build_run(const data_run *run, gv_manifest *m, gv_run_record *record);
 
 /* build_ranks.c: under mpirun, rank 0 adds to m the runs the other ranks built (built: this

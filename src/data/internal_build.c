@@ -10,6 +10,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/internal_pairs.h"
 #include "gaussvid/metrics.h"
+#include "data/build_internal.h"
 
 #define PARITY_SEED 0x9E3779B97F4A7C15ull /* subset 1's seed differs from subset 0's */
 
@@ -230,8 +231,7 @@ int gv_internal_build(const gv_scene *scene, const gv_internal_options *o, gv_in
     gv_dataset_default_params(&b.params);
     b.params.iters = o->iters, b.params.seed = o->seed, b.params.clips_per_run = b.count;
     b.params.downscale = scene->downscale > 0 ? scene->downscale : 1;
-    char clips_dir[4096];
-    if (rc == 0) rc = gv_path_join(clips_dir, sizeof clips_dir, o->out_dir, "clips") || gv_mkdirs(clips_dir);
+    if (rc == 0) rc = data_prepare_out_dir(o->out_dir); /* as dataset build: a killed subset's temporaries go */
     int done = rc == 0 ? already_built(&b) : -1;
     if (done < 0) rc = -1;
     for (int p = 0; rc == 0 && !done && p < 2; p++) {
@@ -246,8 +246,6 @@ int gv_internal_build(const gv_scene *scene, const gv_internal_options *o, gv_in
         result->subsets_trained += rc == 0;
     }
     gv_run_record rec = {0};
-    char runs_dir[4096];
-    if (rc == 0) rc = gv_path_join(runs_dir, sizeof runs_dir, o->out_dir, "runs") || gv_mkdirs(runs_dir);
     if (rc == 0) rc = make_record(&b, &rec);
     if (rc == 0 && !done) rc = commit(&b, &rec, gv_now() - start);
     if (rc == 0) {
