@@ -21,17 +21,7 @@ mkdir -p "$C"/{colmap_bin,colmap_text,transforms,ply,image,safetensors,clip,conf
 "$G" scene synth --seed 4 --frames 14 --size 32x32 --samples 1 --out B --quiet
 "$G" dataset build --scenes A B --eval-scenes B --intervals 6 --iters 5 --clips-per-run 1 --seed 5 --out D --quiet --threads 1
 # A config smaller than the tiny preset keeps the checkpoint seeds near 100 KB.
-cat > micro.json <<'JSON'
-{"name": "micro",
- "dit": {"dim": 8, "ffn_dim": 16, "freq_dim": 8, "text_dim": 8, "num_heads": 1, "num_layers": 1,
-         "vace_layers": [0], "vace_in_dim": 72, "patch_size": [1, 2, 2], "in_dim": 4, "out_dim": 4,
-         "text_len": 4, "eps": 1e-06, "qk_norm": true, "cross_attn_norm": true, "cross_attn": true},
- "vae": {"dim": 4, "z_dim": 4, "dim_mult": [1, 2, 2, 2], "num_res_blocks": 1, "attn_scales": [],
-         "temperal_downsample": [false, true, true], "temporal_factor": 4, "spatial_factor": 8},
- "camera": {"channels": 4, "gate_hidden": 4, "proj_hidden": 8, "gamma_init": 0.1},
- "lora": {"rank": 1, "alpha": 1, "targets": ["q", "k", "v", "o", "ffn.0", "ffn.2"], "modules": ["blocks", "vace_blocks"]},
- "variant": {"camera": "decomposed", "anchors": "both", "per_frame": false, "skip": false, "residual": false}}
-JSON
+cp "$ROOT/tests/cli/lib/micro.json" micro.json # the micro network of the tests
 "$G" vae train --config micro.json --scenes A --steps 1 --crop 32x32 --stats-clips 1 --out vae.safetensors --quiet
 "$G" pretrain --clips D --config micro.json --vae vae.safetensors --steps 1 --batch 1 --seed 1 --out base.safetensors --quiet
 

@@ -8,22 +8,13 @@
 # smaller than the tiny preset), on one thread.
 # Usage: bash disk_full.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
+LIB=$(cd "$(dirname "$0")/lib" && pwd)
 cli_setup disk_full "$1"
 G=$(realpath "$G")
 cd "$T" || exit 1
 export OMP_NUM_THREADS=1
 
-cat >micro.json <<'JSON'
-{"name": "micro",
- "dit": {"dim": 8, "ffn_dim": 16, "freq_dim": 8, "text_dim": 8, "num_heads": 1, "num_layers": 1,
-         "vace_layers": [0], "vace_in_dim": 72, "patch_size": [1, 2, 2], "in_dim": 4, "out_dim": 4,
-         "text_len": 4, "eps": 1e-06, "qk_norm": true, "cross_attn_norm": true, "cross_attn": true},
- "vae": {"dim": 4, "z_dim": 4, "dim_mult": [1, 2, 2, 2], "num_res_blocks": 1, "attn_scales": [],
-         "temperal_downsample": [false, true, true], "temporal_factor": 4, "spatial_factor": 8},
- "camera": {"channels": 4, "gate_hidden": 4, "proj_hidden": 8, "gamma_init": 0.1},
- "lora": {"rank": 1, "alpha": 1, "targets": ["q", "k", "v", "o", "ffn.0", "ffn.2"], "modules": ["blocks", "vace_blocks"]},
- "variant": {"camera": "decomposed", "anchors": "both", "per_frame": false, "skip": false, "residual": false}}
-JSON
+cp "$LIB/micro.json" micro.json # the micro network of the tests
 
 # Every output once with room.
 Q=(--quiet --threads 1)

@@ -13,6 +13,7 @@
 # ADAPT_MOMENTS (default 2) how many per stage of adapt.
 # Usage: bash kill.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
+LIB=$(cd "$(dirname "$0")/lib" && pwd)
 cli_setup kill "$1"
 CONFIGS="$(cd "$(dirname "$0")/../../configs" && pwd)"
 G=$(realpath "$G")
@@ -22,17 +23,7 @@ RANDOM=${KILL_SEED:-25}
 MOMENTS=${KILL_MOMENTS:-3}
 
 mkdir in
-cat >in/micro.json <<'JSON'
-{"name": "micro",
- "dit": {"dim": 8, "ffn_dim": 16, "freq_dim": 8, "text_dim": 8, "num_heads": 1, "num_layers": 1,
-         "vace_layers": [0], "vace_in_dim": 72, "patch_size": [1, 2, 2], "in_dim": 4, "out_dim": 4,
-         "text_len": 4, "eps": 1e-06, "qk_norm": true, "cross_attn_norm": true, "cross_attn": true},
- "vae": {"dim": 4, "z_dim": 4, "dim_mult": [1, 2, 2, 2], "num_res_blocks": 1, "attn_scales": [],
-         "temperal_downsample": [false, true, true], "temporal_factor": 4, "spatial_factor": 8},
- "camera": {"channels": 4, "gate_hidden": 4, "proj_hidden": 8, "gamma_init": 0.1},
- "lora": {"rank": 1, "alpha": 1, "targets": ["q", "k", "v", "o", "ffn.0", "ffn.2"], "modules": ["blocks", "vace_blocks"]},
- "variant": {"camera": "decomposed", "anchors": "both", "per_frame": false, "skip": false, "residual": false}}
-JSON
+cp "$LIB/micro.json" in/micro.json # the micro network of the tests
 expect 0 "synth a" -- "$G" scene synth --seed 3 --frames 14 --size 32x32 --samples 1 --out in/A --quiet
 expect 0 "synth b" -- "$G" scene synth --seed 4 --frames 14 --size 32x32 --samples 1 --out in/B --quiet
 # adapt: the tiny preset with a VAE of temporal factor 1 (as tests/cli/adapt.sh), and a scene
