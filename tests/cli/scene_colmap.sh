@@ -59,5 +59,5 @@ expect 0 "the scene loads" -- "$G" scene info L --interval 4
 has "24"
 check "PINHOLE cameras" grep -q " PINHOLE " L/sparse/0/cameras.txt
 check "the cameras up to a similarity" python3 "$LIB/compare_cameras.py" "$LIVINGROOM/sparse/0/images.txt" \
-    L/sparse/0/images.txt 2 0.03
+    L/sparse/0/images.txt 3 0.03
 cli_finish

@@ -1,11 +1,18 @@
 """Compares the cameras of two COLMAP text models up to a similarity transform (scene colmap's
-test): every pair of cameras' relative rotation R_i R_j^T (unchanged by a change of world
-frame) within MAX_DEG degrees, and the camera centres, after the similarity that the rotations
-and a least-squares scale give, within MAX_SHARE of the known cameras' extent (the largest
-distance of a centre from their mean). Prints the errors; exits 1 when a tolerance is broken.
+test): the relative rotation R_i R_j^T of every pair of cameras (unchanged by a change of world
+frame), and the camera centres after the similarity that the rotations and a least-squares
+scale give, in shares of the known cameras' extent (the largest distance of a centre from their
+mean). The medians must be within MAX_DEG / MAX_SHARE and the worst within WORST_FACTOR times
+them: COLMAP's mapper is not deterministic with several threads, and on 24 photos of 256x144 it
+now and then bends the path by a few degrees (18 runs on livingroom: medians 0.48-1.79 deg and
+1.07-1.44 %, worst 1.06-5.34 deg and 1.92-3.17 %), while a wrong convention (a transposed
+rotation, a flipped axis) costs tens of degrees. Prints the errors; exits 1 when a tolerance
+is broken.
 Usage: python3 compare_cameras.py KNOWN/images.txt RECOVERED/images.txt MAX_DEG MAX_SHARE"""
 import math
 import sys
+
+WORST_FACTOR = 3
 
 
 def read_images(path):
@@ -22,6 +29,11 @@ def read_images(path):
             t = [float(v) for v in f[5:8]]
             cams[f[9]] = (R, t)
     return cams
+
+
+def median(v):
+    v = sorted(v)
+    return (v[(len(v) - 1) // 2] + v[len(v) // 2]) / 2
 
 
 def mul(A, B):
@@ -46,12 +58,12 @@ def main():
     names = sorted(set(known) & set(got))
     if len(names) < 3:
         sys.exit("compare_cameras: %d cameras in common" % len(names))
-    worst_rot = 0.0
-    for a in names:
-        for b in names:
+    rot_err = []
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
             rk = mul(known[a][0], tr(known[b][0]))
             rg = mul(got[a][0], tr(got[b][0]))
-            worst_rot = max(worst_rot, angle(mul(tr(rk), rg)))
+            rot_err.append(angle(mul(tr(rk), rg)))
     # World rotation W with R_got = R_known W^T: W = R_got^T R_known, averaged then re-orthonormalised.
     S = [[0.0] * 3 for _ in range(3)]
     for n in names:
@@ -72,10 +84,12 @@ def main():
     dg = [[c[i] - mg[i] for i in range(3)] for c in cg]
     s = sum(sum(a[i] * b[i] for i in range(3)) for a, b in zip(rot, dg)) / sum(sum(a[i] ** 2 for i in range(3)) for a in rot)
     extent = max(math.sqrt(sum((c[i] - mk[i]) ** 2 for i in range(3))) for c in ck)
-    worst_c = max(math.sqrt(sum((b[i] / s - a[i]) ** 2 for i in range(3))) for a, b in zip(rot, dg)) / extent
-    print("%d cameras: worst relative rotation error %.3f deg, worst centre error %.3f %% of the extent"
-          % (len(names), worst_rot, 100 * worst_c))
-    sys.exit(0 if worst_rot < max_deg and worst_c < max_share else 1)
+    c_err = [math.sqrt(sum((b[i] / s - a[i]) ** 2 for i in range(3))) / extent for a, b in zip(rot, dg)]
+    print("%d cameras: relative rotation error median %.3f worst %.3f deg; centre error median %.3f worst %.3f %% "
+          "of the extent" % (len(names), median(rot_err), max(rot_err), 100 * median(c_err), 100 * max(c_err)))
+    ok = (median(rot_err) < max_deg and median(c_err) < max_share
+          and max(rot_err) < WORST_FACTOR * max_deg and max(c_err) < WORST_FACTOR * max_share)
+    sys.exit(0 if ok else 1)
 
 
 main()
