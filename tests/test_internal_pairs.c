@@ -258,7 +258,7 @@ static void test_build(const char *base)
             CHECK(remove(path) == 0);
         }
     snprintf(out, sizeof out, "%s/pairs", base);
-    gv_internal_options o = {N, 7, 4, &fake, out};
+    gv_internal_options o = {N, 7, 4, &fake, out, 0};
     gv_internal_result r;
     memset(&state, 0, sizeof state);
     CHECK(gv_internal_build(&scene, &o, &r) == 0);
@@ -303,6 +303,51 @@ static void test_build(const char *base)
     gv_scene_free(&scene);
 }
 
+/* The do-no-harm clips: the same frames and masks as the pairs, all rendered by one model
+ * trained on every training view at n. */
+static void test_build_harm(const char *base)
+{
+    char scene_dir[4400], out[4400];
+    snprintf(scene_dir, sizeof scene_dir, "%s/full/room", base);
+    make_scene(scene_dir, FRAMES);
+    gv_scene scene;
+    CHECK(gv_scene_load(scene_dir, NULL, &scene) == 0);
+    snprintf(out, sizeof out, "%s/harm", base);
+    gv_internal_options o = {N, 7, 4, &fake, out, 1};
+    gv_internal_result r;
+    memset(&state, 0, sizeof state);
+    CHECK(gv_internal_build(&scene, &o, &r) == 0);
+    CHECK(r.clips == 5 && r.subsets_trained == 1 && state.trains == 1 && state.intervals[0] == N);
+    for (int f = 0; f < FRAMES; f++) CHECK(state.trained_on[0][f] == (f % N == 0)); /* every training view */
+    gv_manifest m;
+    int found = 0;
+    CHECK(gv_manifest_read(out, &m, &found) == 0 && found);
+    CHECK(m.n_runs == 1 && m.runs[0].id.n == 2 * N && m.n_clips == 5); /* the pairs' metadata */
+    gv_internal_clip plan[FRAMES];
+    int count;
+    CHECK(gv_internal_plan(FRAMES, N, plan, &count) == 0 && count == 5);
+    for (int i = 0; i < m.n_clips && i < count; i++) {
+        char path[4400], want[64];
+        snprintf(want, sizeof want, "clips/room_n06_%03d.safetensors", i);
+        CHECK(!strcmp(m.clips[i].file, want));
+        snprintf(path, sizeof path, "%s/%s", out, m.clips[i].file);
+        gv_clip c;
+        CHECK(gv_clip_read(path, &c) == 0);
+        const gv_clip_info *info = &c.info;
+        CHECK(info->id.n == 2 * N && info->offset == plan[i].parity * N);
+        CHECK(!memcmp(info->frames, plan[i].frames, sizeof info->frames));
+        CHECK(!info->no_target[0] && info->no_target[1] && !info->no_target[2] && info->no_target[3] && !info->no_target[4]);
+        for (int f = 1; f < 4; f++) /* rendered by the full model (its first view is frame 0) */
+            CHECK(frame_equals_render(gv_clip_frame(c.inputs, info, f), info->frames[f], 0));
+        CHECK(frame_equals_truth(gv_clip_frame(c.targets, info, 2), info->frames[2]));
+        gv_clip_free(&c);
+    }
+    gv_manifest_free(&m);
+    memset(&state, 0, sizeof state); /* built: nothing trained again */
+    CHECK(gv_internal_build(&scene, &o, &r) == 0 && r.subsets_trained == 0 && state.trains == 0);
+    gv_scene_free(&scene);
+}
+
 int main(void)
 {
     const char *base = check_tmp_dir();
@@ -310,5 +355,6 @@ int main(void)
     test_plan();
     test_clip_format(base);
     test_build(base);
+    test_build_harm(base);
     return check_summary();
 }

@@ -89,6 +89,7 @@ static void test_scene_checkpoint(const char *tmp)
     a.interval = 16, a.iters = 3000, a.train_clips = 5, a.held_back = 3, a.best_step = 150;
     a.val_gain_db = 0.125, a.gate_open = 0, a.gate_margin_db = 0.05, a.gate_frames = 3;
     a.gate_psnr_base = 30.5, a.gate_psnr_restored = 30.25, a.seconds_train = 12.5;
+    a.harm_max_loss_db = 0.05, a.harm_frames = 3, a.harm_psnr_base = 38.5, a.harm_psnr_restored = 38.375;
     snprintf(a.gate_sampler, sizeof a.gate_sampler, "onestep t0=0.05");
     CHECK(gv_file_checksum(base_path, a.base_checksum, sizeof a.base_checksum) == 0);
     snprintf(st.base, sizeof st.base, "%s", base_path);
@@ -110,6 +111,8 @@ static void test_scene_checkpoint(const char *tmp)
     CHECK(!strcmp(back.scene, "room") && back.interval == 16 && back.best_step == 150 && !back.gate_open);
     CHECK(back.gate_psnr_restored == 30.25 && back.val_gain_db == 0.125 && !strcmp(back.gate_sampler, "onestep t0=0.05"));
     CHECK_NEAR(gv_scene_gate_change(&back), -0.25, 1e-12);
+    CHECK(back.harm_frames == 3 && back.harm_max_loss_db == 0.05 && back.harm_psnr_base == 38.5);
+    CHECK_NEAR(gv_scene_harm_change(&back), -0.125, 1e-12);
     CHECK(gv_scene_checkpoint_is(scene_path) == 1 && gv_scene_checkpoint_is(base_path) == 0);
     CHECK_FAILS_WITH(gv_scene_checkpoint_read(base_path, &back), "not a scene checkpoint");
 
@@ -144,10 +147,33 @@ static void test_scene_checkpoint(const char *tmp)
     gv_dit_free(&base), gv_dit_free(&tuned);
 }
 
+/* The gate's decision on hand-set measurements: every condition strict, each one alone closes it. */
+static void test_gate_decide(void)
+{
+    gv_scene_adaptation a;
+    memset(&a, 0, sizeof a);
+    a.gate_margin_db = 0.0, a.gate_min_frames = 4, a.harm_max_loss_db = 0.05;
+    a.gate_frames = 6, a.gate_psnr_base = 20.0, a.gate_psnr_restored = 20.3;
+    CHECK(gv_scene_gate_decide(&a) == 1); /* gains; the do-no-harm clips not measured (an older checkpoint) */
+    a.harm_frames = 6, a.harm_psnr_base = 36.0, a.harm_psnr_restored = 35.96;
+    CHECK(gv_scene_gate_decide(&a) == 1); /* -0.04 dB on the nearly clean renders: allowed */
+    a.harm_psnr_restored = 35.94;
+    CHECK(gv_scene_gate_decide(&a) == 0); /* -0.06 dB: it overshoots */
+    a.harm_psnr_restored = 36.5;
+    CHECK(gv_scene_gate_decide(&a) == 1);
+    a.gate_frames = 3;
+    CHECK(gv_scene_gate_decide(&a) == 0); /* too few frames */
+    a.gate_frames = 4, a.gate_psnr_restored = 20.0;
+    CHECK(gv_scene_gate_decide(&a) == 0); /* no gain: the margin is strict */
+    a.gate_psnr_restored = 20.3, a.gate_margin_db = 0.5;
+    CHECK(gv_scene_gate_decide(&a) == 0); /* under the margin */
+}
+
 int main(void)
 {
     const char *tmp = check_tmp_dir();
     gv_log_set_level(GV_LOG_QUIET);
+    test_gate_decide();
     test_hold_back();
     test_scene_checkpoint(tmp);
     return check_summary();

@@ -37,11 +37,13 @@ typedef struct {
     gv_compose compose;
     double gate_margin_db;           /* the gate opens when the held-back PSNR change exceeds this */
     int gate_min_frames;             /* ... measured on at least this many held-back frames */
+    double harm_max_loss_db;         /* ... and their do-no-harm clips lose less than this (>= 0) */
 } gv_adapt_options;
 
 /* The defaults (docs/ADAPT.md): the residual output, 8000 iterations, every 3rd clip held
  * back, 300 steps of 2 clips at lr 1e-3 decaying linearly to 0, t ~ U[0, 0.1], no curriculum, no progressive loss,
- * validation every 50 steps; the gate with restore's default sampler and composition, margin 0. */
+ * validation every 50 steps; the gate with restore's default sampler and composition, margin 0,
+ * at least 4 frames, a do-no-harm loss under 0.05 dB. */
 void gv_adapt_defaults(gv_adapt_options *o);
 
 typedef struct {
@@ -49,6 +51,7 @@ typedef struct {
     int already;                     /* 1: it existed before the call: nothing was done */
     char work_dir[4096];
     gv_internal_result pairs;
+    gv_internal_result harm;         /* the do-no-harm clips */
     gv_scene_adaptation adaptation;  /* what the checkpoint records (when done) */
     gv_adapt_best best;
     gv_train_report train;
@@ -60,10 +63,16 @@ typedef struct {
  * frames into a latent frame, a missing file. */
 int gv_adapt_scene(const gv_adapt_options *o, gv_adapt_report *r);
 
+/* Means over the intermediate frames with ground truth, as rendered and restored. */
+typedef struct {
+    int frames;
+    double psnr_base, psnr_restored, ssim_base, ssim_restored;
+} gv_gate_measure;
+
 /* The gate's measurement (adapt_gate.c): restores every clip of a dataset folder's latent set
- * with the network and measures the intermediate frames with ground truth, restored and as
- * rendered: a's gate_frames, gate_psnr_* and gate_ssim_*. */
+ * with the network, as restore would, and measures the intermediate frames with ground truth,
+ * restored and as rendered. Fails when no frame has ground truth. */
 int gv_adapt_measure(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_latent_set *set, const gv_sampler *s,
-                     gv_compose compose, gv_scene_adaptation *a);
+                     gv_compose compose, gv_gate_measure *out);
 
 #endif

@@ -15,7 +15,12 @@
  *   frame 4  view (k + 1) n, clean
  * so every interior training view is left out once, and the only frames with ground truth are
  * training views. The clips are those of a dataset folder (clip.c, manifest.c) with interval
- * 2n, the subset's first view as "offset" and the mask as "target_mask" (dataset.h). */
+ * 2n, the subset's first view as "offset" and the mask as "target_mask" (dataset.h).
+ *
+ * The do-no-harm clips (full_model) have the same frames and mask, rendered by the simulator
+ * trained on every training view at n (offset 0, interval n): frames 1 and 3 are renders like
+ * those the restorer must restore, and frame 2, a training view of that model, is nearly clean.
+ * A restorer that changes it for the worse overshoots (the gate's second test, adapt.h). */
 #ifndef GAUSSVID_INTERNAL_PAIRS_H
 #define GAUSSVID_INTERNAL_PAIRS_H
 
@@ -48,6 +53,7 @@ typedef struct {
     uint64_t seed;                   /* subset p trains with gv_run_seed(seed, scene, 2n) ^ (p * golden) */
     const gv_artifact_simulator *simulator; /* NULL: sparse 3DGS (gv_artifact_3dgs) */
     const char *out_dir;             /* the dataset folder written */
+    int full_model;                  /* 1: the do-no-harm clips instead of the internal pairs */
 } gv_internal_options;
 
 typedef struct {

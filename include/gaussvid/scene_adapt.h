@@ -36,11 +36,23 @@ typedef struct {
     int gate_frames;                /* held-back frames with ground truth that were restored */
     double gate_psnr_base, gate_psnr_restored, gate_ssim_base, gate_ssim_restored;
     char gate_sampler[256];         /* the sampler and composition the gate restored with */
+    /* The do-no-harm test (internal_pairs.h): the same held-back views' clips rendered by the
+     * model of every training view, whose nearly clean middle frame a restorer that overshoots
+     * makes worse. harm_frames 0: not measured (a checkpoint from before it existed). */
+    double harm_max_loss_db;        /* the gate opens only when their PSNR drops by less than this */
+    int harm_frames;
+    double harm_psnr_base, harm_psnr_restored, harm_ssim_base, harm_ssim_restored;
     double seconds_pairs, seconds_latents, seconds_train, seconds_gate;
 } gv_scene_adaptation;
 
-/* PSNR change the gate measured (restored - base). */
+/* PSNR change the gate measured (restored - base) on the held-back pairs, and on their
+ * do-no-harm clips. */
 double gv_scene_gate_change(const gv_scene_adaptation *a);
+double gv_scene_harm_change(const gv_scene_adaptation *a);
+/* The gate's decision from the measurements: 1 (open) when the held-back pairs gain more than
+ * gate_margin_db over at least gate_min_frames frames and, when the do-no-harm clips were
+ * measured, their change is above -harm_max_loss_db. */
+int gv_scene_gate_decide(const gv_scene_adaptation *a);
 /* Writes the adapters of m (the tensors fine-tuning trains) with the config, state (its kind
  * becomes "scene"; its base names the base checkpoint) and a; atomic. */
 int gv_scene_checkpoint_save(const char *path, const gv_dit *m, const gv_model_config *cfg, const gv_train_state *state,

@@ -8,19 +8,28 @@
 #include "gaussvid/adapt.h"
 #include "gaussvid/core.h"
 
+/* Why the gate is closed, when it is. */
+static const char *closed_because(const gv_scene_adaptation *a)
+{
+    if (gv_scene_gate_change(a) <= a->gate_margin_db) return "the held-back pairs do not gain";
+    if (a->gate_frames < a->gate_min_frames) return "too few held-back frames to trust (at least --gate-min-frames)";
+    return "the restorer harms nearly clean renders (the do-no-harm clips, --harm-max-loss)";
+}
+
 static void print_summary(const char *out, const gv_adapt_report *r)
 {
     const gv_scene_adaptation *a = &r->adaptation;
     printf("%s: %s n=%d: %d internal clips trained on, %d held back; step %ld kept (held-back latent gain %+.3f dB)\n",
            out, a->scene, a->interval, a->train_clips, a->held_back, a->best_step, a->val_gain_db);
-    printf("gate %s: held-back frames %.2f dB / %.4f as rendered, %.2f dB / %.4f restored (%+.2f dB over %d frames, "
-           "margin %+.2f dB)%s\n",
-           a->gate_open ? "open" : "closed", a->gate_psnr_base, a->gate_ssim_base, a->gate_psnr_restored,
-           a->gate_ssim_restored, gv_scene_gate_change(a), a->gate_frames, a->gate_margin_db,
-           a->gate_open ? ": restore and eval will restore this scene's renders"
-           : a->gate_frames < a->gate_min_frames ? ": too few held-back frames to trust (at least --gate-min-frames); "
-                                                   "restore and eval will leave this scene's renders unchanged"
-                                                 : ": restore and eval will leave this scene's renders unchanged");
+    printf("held-back pairs: %.2f dB / %.4f as rendered, %.2f dB / %.4f restored (%+.2f dB over %d frames, margin "
+           "%+.2f dB)\n", a->gate_psnr_base, a->gate_ssim_base, a->gate_psnr_restored, a->gate_ssim_restored,
+           gv_scene_gate_change(a), a->gate_frames, a->gate_margin_db);
+    if (a->harm_frames > 0)
+        printf("their do-no-harm clips: %.2f dB / %.4f as rendered, %.2f dB / %.4f restored (%+.2f dB over %d frames, "
+               "at most -%.2f dB allowed)\n", a->harm_psnr_base, a->harm_ssim_base, a->harm_psnr_restored,
+               a->harm_ssim_restored, gv_scene_harm_change(a), a->harm_frames, a->harm_max_loss_db);
+    if (a->gate_open) printf("gate open: restore and eval will restore this scene's renders\n");
+    else printf("gate closed: %s; restore and eval will leave this scene's renders unchanged\n", closed_because(a));
     if (!r->already)
         printf("seconds: pairs %.1f, latents %.1f, fine-tuning %.1f, gate %.1f\n", a->seconds_pairs, a->seconds_latents,
                a->seconds_train, a->seconds_gate);
@@ -56,6 +65,8 @@ int cmd_adapt(int argc, char **argv)
         {"gate-margin", GV_FLAG_DOUBLE, &o.gate_margin_db, "DB", "restore only when the held-back PSNR gains more than DB (default 0)", 0},
         {"gate-min-frames", GV_FLAG_INT, &o.gate_min_frames, "K",
          "... measured on at least K held-back frames (default 4; fewer is too little evidence)", 0},
+        {"harm-max-loss", GV_FLAG_DOUBLE, &o.harm_max_loss_db, "DB",
+         "... and the do-no-harm clips (nearly clean renders) lose less than DB (default 0.05)", 0},
         {"sampler", GV_FLAG_STRING, &sampler, "NAME", "the sampler the gate restores with (default " GV_SAMPLER_DEFAULT ", restore's)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "seed of the internal 3DGS runs and the fine-tuning (default 0)", 0},
         {"stop-after", GV_FLAG_INT, &stop_after, "N", "stop the fine-tuning after step N (run again to continue)", 0},
@@ -66,7 +77,9 @@ int cmd_adapt(int argc, char **argv)
         "the views it left out: corrupted frames with known ground truth, docs/FORMATS-DATASET.md),\n"
         "holds back a third of them, fine-tunes the base's adapters (LoRA, camera encoder) on the\n"
         "rest with a learning rate decaying to 0, keeps the step the held-back pairs liked best,\n"
-        "then restores the held-back pairs as 'restore' would: the gate opens only when they gain.\n"
+        "then restores the held-back pairs as 'restore' would: the gate opens only when they gain\n"
+        "and when the same views rendered by the model of every training view (nearly clean: the\n"
+        "do-no-harm clips) do not get worse.\n"
         "The scene checkpoint holds the adapters and the gate; 'restore' and 'eval' use it with\n"
         "--ckpt and leave the renders unchanged when the gate is closed. Run again to resume.\n"
         "See docs/ADAPT.md.",
@@ -74,9 +87,11 @@ int cmd_adapt(int argc, char **argv)
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
     if (steps < 1 || o.train.batch < 1 || val_every < 1 || stop_after < 0 || seed < 0 || o.interval < 2 ||
-        o.iters < 1 || o.hold_every < 2 || o.gate_min_frames < 1 || !(o.train.lr > 0) || !(o.train.t_max > 0 && o.train.t_max <= 1)) {
+        o.iters < 1 || o.hold_every < 2 || o.gate_min_frames < 1 || !(o.train.lr > 0) || !(o.train.t_max > 0 && o.train.t_max <= 1) ||
+        !(o.harm_max_loss_db >= 0)) {
         fprintf(stderr, "gaussvid adapt: --interval needs n >= 2, --hold-every K >= 2; --steps, --batch, --iters, "
-                        "--val-every, --gate-min-frames and --lr must be positive, --t-max in (0, 1], --seed and --stop-after not negative\n");
+                        "--val-every, --gate-min-frames and --lr must be positive, --t-max in (0, 1], --seed, --stop-after and "
+                        "--harm-max-loss not negative\n");
         return 2;
     }
     if (gv_lr_kind_from_name(schedule, &o.train.lr_schedule) ||

@@ -1,6 +1,7 @@
 /* Building the scene-internal clips (internal_pairs.h; docs/FORMATS-DATASET.md): the artifact
  * simulator trained on each half of the training views, its renders of the views it did not
- * see, written as clips of a dataset folder. A subset trains on a view of the scene that starts
+ * see, written as clips of a dataset folder; or, for the do-no-harm clips, the same clips'
+ * frames rendered by the simulator trained on every training view. A subset trains on a view of the scene that starts
  * at its first training view, so the simulator's "frames 0, 2n, 4n, ..." are the subset's
  * views whatever their parity, and the simulator interface stays that of `dataset build`.
  * Images are read only for training views at n: the held-out frames are rendered, never read. */
@@ -31,7 +32,7 @@ static void clip_info(const build_ctx *b, const gv_internal_clip *c, gv_clip_inf
     memset(info, 0, sizeof *info);
     snprintf(info->id.scene, sizeof info->id.scene, "%s", b->name);
     snprintf(info->id.split, sizeof info->id.split, "train");
-    info->id.n = 2 * b->o->interval;
+    info->id.n = 2 * b->o->interval; /* the window's: the do-no-harm clips keep the pairs' metadata */
     info->anchor_gap = 1;
     info->iters = b->o->iters;
     info->sampling = GV_SAMPLING_UNIFORM;
@@ -74,8 +75,9 @@ static int fits(const gv_image *img, const gv_clip_info *info)
     return img->width == info->width && img->height == info->height && img->channels == 3;
 }
 
-/* Clip i from the subset's model: clean anchors, the renders of frames 1-3 as inputs, the
- * middle frame's ground truth as its target; the masked frames' targets repeat their inputs. */
+/* Clip i from the model of a subset or of every view: clean anchors, the renders of frames 1-3
+ * as inputs, the middle frame's ground truth as its target; the masked frames' targets repeat
+ * their inputs. */
 static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int i)
 {
     const gv_internal_clip *c = &b->clips[i];
@@ -84,12 +86,12 @@ static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int
     clip_info(b, c, &info);
     if (gv_clip_alloc(&clip, &info)) return -1;
     size_t bytes = (size_t)info.width * info.height * 3;
-    int rc = 0;
+    int first = (int)(view->cameras - b->scene->cameras), rc = 0; /* the model's view starts there */
     for (int f = 0; rc == 0 && f < GV_CLIP_FRAMES; f++) {
         int frame = c->frames[f], anchor = f == 0 || f == GV_CLIP_FRAMES - 1, has_truth = anchor || f == 2;
         gv_image truth = {0}, render = {0};
         if (has_truth) rc = gv_scene_load_image(b->scene, frame, &truth);
-        if (rc == 0 && !anchor) rc = b->sim->render(b->sim->ctx, model, view, frame - info.offset, &render);
+        if (rc == 0 && !anchor) rc = b->sim->render(b->sim->ctx, model, view, frame - first, &render);
         const gv_image *input = anchor ? &truth : &render, *target = has_truth ? &truth : &render;
         if (rc == 0 && (!fits(input, &info) || !fits(target, &info)))
             rc = gv_fail("%s: frame %d is not %dx%d RGB like the clip's first frame: a clip needs one size", b->name,
@@ -108,27 +110,32 @@ static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int
     return rc ? gv_fail_context("%s: internal clip of view %d", b->name, c->view) : 0;
 }
 
-/* Trains the subset of parity p and writes its clips. */
+/* 1 when clip i is rendered by the model of pass p (the subset of parity p; the full model
+ * renders every clip in its one pass). */
+static int in_pass(const build_ctx *b, int i, int p) { return b->o->full_model || b->clips[i].parity == p; }
+
+/* Trains the model of pass p (the subset of parity p, or the full model) and writes its clips. */
 static int build_subset(const build_ctx *b, int p)
 {
-    int n = b->o->interval, first = p * n;
+    int n = b->o->interval, step = b->o->full_model ? n : 2 * n, first = b->o->full_model ? 0 : p * n;
     gv_scene view = *b->scene; /* the scene from the subset's first view on: not owned */
     view.cameras = b->scene->cameras + first;
     view.n_frames = b->scene->n_frames - first;
-    int views = (view.n_frames - 1) / (2 * n) + 1, clips = 0;
-    for (int i = 0; i < b->count; i++) clips += b->clips[i].parity == p;
-    char list[96];
-    if (views == 2) snprintf(list, sizeof list, "%d and %d", first, first + 2 * n);
-    else snprintf(list, sizeof list, "%d, %d, ..., %d", first, first + 2 * n, first + (views - 1) * 2 * n);
-    gv_info("internal pairs: %s subset %d of 2 (views %s: %d views at interval %d), %d clip%s", b->name, p + 1, list,
-            views, 2 * n, clips, clips == 1 ? "" : "s");
-    uint64_t seed = gv_run_seed(b->o->seed, b->name, 2 * n) ^ (p ? PARITY_SEED : 0);
+    int views = (view.n_frames - 1) / step + 1, clips = 0;
+    for (int i = 0; i < b->count; i++) clips += in_pass(b, i, p);
+    char list[96], what[64];
+    if (views == 2) snprintf(list, sizeof list, "%d and %d", first, first + step);
+    else snprintf(list, sizeof list, "%d, %d, ..., %d", first, first + step, first + (views - 1) * step);
+    if (b->o->full_model) snprintf(what, sizeof what, "do-no-harm clips: %s, the full model", b->name);
+    else snprintf(what, sizeof what, "internal pairs: %s subset %d of 2", b->name, p + 1);
+    gv_info("%s (views %s: %d views at interval %d), %d clip%s", what, list, views, step, clips, clips == 1 ? "" : "s");
+    uint64_t seed = gv_run_seed(b->o->seed, b->name, step) ^ (p ? PARITY_SEED : 0);
     void *model = NULL;
-    if (b->sim->train(b->sim->ctx, &view, 2 * n, b->o->iters, seed, &model))
-        return gv_fail_context("%s: subset %d: %s", b->name, p + 1, b->sim->name);
+    if (b->sim->train(b->sim->ctx, &view, step, b->o->iters, seed, &model))
+        return gv_fail_context("%s: %s", what, b->sim->name);
     int rc = 0;
     for (int i = 0; rc == 0 && i < b->count; i++)
-        if (b->clips[i].parity == p) rc = write_clip(b, model, &view, i);
+        if (in_pass(b, i, p)) rc = write_clip(b, model, &view, i);
     b->sim->free_model(b->sim->ctx, model);
     return rc;
 }
@@ -209,8 +216,9 @@ static int already_built(const build_ctx *b)
     }
     gv_manifest_free(&m);
     if (!same)
-        return gv_fail("%s: holds other clips than the internal pairs of %s at n = %d with %d iterations and seed "
-                       "%llu: use another folder", b->o->out_dir, b->name, b->o->interval, q->iters,
+        return gv_fail("%s: holds other clips than the %s of %s at n = %d with %d iterations and seed "
+                       "%llu: use another folder", b->o->out_dir,
+                       b->o->full_model ? "do-no-harm clips" : "internal pairs", b->name, b->o->interval, q->iters,
                        (unsigned long long)q->seed);
     return complete;
 }
@@ -234,12 +242,13 @@ int gv_internal_build(const gv_scene *scene, const gv_internal_options *o, gv_in
     if (rc == 0) rc = data_prepare_out_dir(o->out_dir); /* as dataset build: a killed subset's temporaries go */
     int done = rc == 0 ? already_built(&b) : -1;
     if (done < 0) rc = -1;
-    for (int p = 0; rc == 0 && !done && p < 2; p++) {
+    for (int p = 0; rc == 0 && !done && p < (o->full_model ? 1 : 2); p++) {
         int present = 1;
         for (int i = 0; present && i < b.count; i++)
-            if (b.clips[i].parity == p) present = clip_present(&b, i);
+            if (in_pass(&b, i, p)) present = clip_present(&b, i);
         if (present) {
-            gv_info("internal pairs: %s subset %d of 2: its clips are already built", b.name, p + 1);
+            if (o->full_model) gv_info("do-no-harm clips: %s: already built", b.name);
+            else gv_info("internal pairs: %s subset %d of 2: its clips are already built", b.name, p + 1);
             continue;
         }
         rc = build_subset(&b, p);

@@ -1,6 +1,7 @@
 /* `gaussvid adapt` as a library call (adapt.h; docs/ADAPT.md): check the inputs, build the
- * scene's internal pairs, fine-tune the base's adapters on them keeping the best step, measure
- * the gate on the held-back pairs and write the scene checkpoint. Each stage resumes from the
+ * scene's internal pairs and do-no-harm clips, fine-tune the base's adapters on the pairs
+ * keeping the best step, measure the gate on the held-back pairs and their do-no-harm clips
+ * and write the scene checkpoint. Each stage resumes from the
  * work folder; the checkpoint is written last, so its presence means the adaptation is done. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -31,6 +32,7 @@ void gv_adapt_defaults(gv_adapt_options *o)
     gv_compose_from_name(GV_COMPOSE_DEFAULT, &o->compose);
     o->gate_margin_db = 0.0;
     o->gate_min_frames = 4;           /* two frames opened livingroom n = 26 and lost 0.68 dB (RESULTS) */
+    o->harm_max_loss_db = 0.05;       /* issue 20: no n below -0.05 dB */
 }
 
 /* The base: a checkpoint (not a scene's) of the network o->config names, whose VAE gives each
@@ -76,6 +78,7 @@ static int load_scene(const gv_adapt_options *o, const gv_model_config *cfg, gv_
 typedef struct {
     gv_restorer base;                /* the base: its network (adapters trained here), VAE, state */
     gv_latent_set train, held;
+    gv_latent_set harm_unused, harm; /* the do-no-harm clips of the trained and held-back views */
 } adapt_run;
 
 static void run_free(adapt_run *x)
@@ -83,13 +86,16 @@ static void run_free(adapt_run *x)
     gv_restorer_free(&x->base);
     gv_latent_set_free(&x->train);
     gv_latent_set_free(&x->held);
+    gv_latent_set_free(&x->harm_unused);
+    gv_latent_set_free(&x->harm);
 }
 
 /* The base's network (every tensor, its adapters to be trained) and VAE; the internal pairs'
- * latents split into training and held-back clips. */
-static int load_model_and_data(const gv_adapt_options *o, const char *pairs, adapt_run *x)
+ * latents split into training and held-back clips, and the do-no-harm clips of the held-back
+ * views (both folders list clip i for view i + 1, so one hold-back picks the same views). */
+static int load_model_and_data(const gv_adapt_options *o, const char *pairs, const char *harm, adapt_run *x)
 {
-    gv_latent_set all;
+    gv_latent_set all, all_harm;
     if (gv_restorer_load(o->base, &x->base) || gv_dit_set_train_mode(&x->base.net, GV_DIT_FINETUNE)) return -1;
     const char *variant = o->variant && strcmp(o->variant, "base") ? o->variant : NULL; /* "base": its own */
     if (variant || o->fresh_camera) {
@@ -104,8 +110,40 @@ static int load_model_and_data(const gv_adapt_options *o, const char *pairs, ada
             return -1;
         x->base.cfg = cfg;
     }
-    if (gv_latent_set_load(pairs, "train", x->base.vae_path, &x->base.vae, &x->base.cfg, &all)) return -1;
-    return gv_latent_set_hold_back(&all, o->hold_every, &x->train, &x->held);
+    if (gv_latent_set_load(pairs, "train", x->base.vae_path, &x->base.vae, &x->base.cfg, &all) ||
+        gv_latent_set_hold_back(&all, o->hold_every, &x->train, &x->held))
+        return -1;
+    if (gv_latent_set_load(harm, "train", x->base.vae_path, &x->base.vae, &x->base.cfg, &all_harm) ||
+        gv_latent_set_hold_back(&all_harm, o->hold_every, &x->harm_unused, &x->harm))
+        return -1;
+    if (x->harm.count != x->held.count)
+        return gv_fail("%s: %d do-no-harm clips held back for %d internal pairs: the work folder is inconsistent",
+                       harm, x->harm.count, x->held.count);
+    return 0;
+}
+
+/* The gate's measurements: the held-back pairs and their do-no-harm clips, restored with the
+ * kept adapters, and its decision. */
+static int measure_gate(const gv_adapt_options *o, const char *pairs, const char *harm, adapt_run *x,
+                        gv_scene_adaptation *a)
+{
+    gv_gate_measure g, h;
+    if (gv_adapt_measure(&x->base.net, &x->base.vae, pairs, &x->held, &o->sampler, o->compose, &g)) return -1;
+    gv_info("adapt: gate: the do-no-harm clips of the %d held-back views", x->harm.count);
+    if (gv_adapt_measure(&x->base.net, &x->base.vae, harm, &x->harm, &o->sampler, o->compose, &h)) return -1;
+    a->gate_frames = g.frames;
+    a->gate_psnr_base = g.psnr_base, a->gate_psnr_restored = g.psnr_restored;
+    a->gate_ssim_base = g.ssim_base, a->gate_ssim_restored = g.ssim_restored;
+    a->harm_frames = h.frames;
+    a->harm_psnr_base = h.psnr_base, a->harm_psnr_restored = h.psnr_restored;
+    a->harm_ssim_base = h.ssim_base, a->harm_ssim_restored = h.ssim_restored;
+    char text[200];
+    gv_sampler_describe(&o->sampler, text, sizeof text);
+    snprintf(a->gate_sampler, sizeof a->gate_sampler, "%s, %s composition", text, gv_compose_name(o->compose));
+    a->gate_margin_db = o->gate_margin_db, a->gate_min_frames = o->gate_min_frames;
+    a->harm_max_loss_db = o->harm_max_loss_db;
+    a->gate_open = gv_scene_gate_decide(a);
+    return 0;
 }
 
 /* The training state the scene checkpoint records: the fine-tuning's, naming the base. */
@@ -130,24 +168,27 @@ static int write_checkpoint(const gv_adapt_options *o, const char *work, adapt_r
 static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x, gv_adapt_report *r)
 {
     gv_scene_adaptation *a = &r->adaptation;
-    char pairs[4200], path[4300];
+    char pairs[4200], harm[4200], path[4300];
     snprintf(pairs, sizeof pairs, "%s/pairs", work);
+    snprintf(harm, sizeof harm, "%s/harm", work);
     gv_scene scene;
     if (gv_checkpoint_read_info(o->base, &x->base.cfg, &x->base.state) || gv_mkdirs(work) ||
         load_scene(o, &x->base.cfg, &scene))
         return -1;
     double t = gv_now();
-    gv_internal_options po = {o->interval, o->iters, o->train.seed, o->simulator, pairs};
-    /* under mpirun rank 0 builds the pairs and the others wait for them: only the fine-tuning
+    gv_internal_options po = {o->interval, o->iters, o->train.seed, o->simulator, pairs, 0};
+    gv_internal_options ho = {o->interval, o->iters, o->train.seed, o->simulator, harm, 1};
+    /* under mpirun rank 0 builds the clips and the others wait for them: only the fine-tuning
      * is shared among the ranks */
     int rc = gv_dist_is_root() ? gv_internal_build(&scene, &po, &r->pairs) : 0;
+    if (rc == 0 && gv_dist_is_root()) rc = gv_internal_build(&scene, &ho, &r->harm);
     rc = gv_dist_after_root(gv_dist_is_root() ? rc : 0, pairs);
     if (rc == 0) gv_scene_name_of(scene.dir, a->scene, sizeof a->scene);
     gv_scene_free(&scene);
     if (rc) return -1;
     a->seconds_pairs = gv_now() - t, t = gv_now();
     gv_info("adapt: latents: the base loaded, the internal clips through its VAE (cached in %s)", pairs);
-    if (load_model_and_data(o, pairs, x)) return -1;
+    if (load_model_and_data(o, pairs, harm, x)) return -1;
     a->seconds_latents = gv_now() - t, t = gv_now();
 
     gv_train_options to = o->train;
@@ -175,14 +216,12 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
 
     if (gv_dit_set_train_mode(&x->base.net, GV_DIT_FROZEN)) return -1;
     gv_info("adapt: gate: restoring the %d held-back clips with the adapters of step %ld", x->held.count, r->best.step);
-    if (gv_adapt_measure(&x->base.net, &x->base.vae, pairs, &x->held, &o->sampler, o->compose, a)) return -1;
+    if (measure_gate(o, pairs, harm, x, a)) return -1;
     a->seconds_gate = gv_now() - t;
     a->interval = o->interval, a->iters = o->iters;
     a->train_clips = x->train.count, a->held_back = x->held.count;
     a->best_step = r->best.step;
     a->val_gain_db = r->best.gain_db, a->val_loss = r->best.loss, a->val_identity = r->best.identity;
-    a->gate_margin_db = o->gate_margin_db, a->gate_min_frames = o->gate_min_frames;
-    a->gate_open = gv_scene_gate_change(a) > o->gate_margin_db && a->gate_frames >= o->gate_min_frames;
     if (write_checkpoint(o, work, x, r)) return -1;
     r->done = 1;
     return 0;
@@ -192,9 +231,10 @@ int gv_adapt_scene(const gv_adapt_options *o, gv_adapt_report *r)
 {
     memset(r, 0, sizeof *r);
     if (!o->scene_dir || !o->base || !o->out) return gv_fail("adapt: a scene, a base checkpoint and an output are needed");
-    if (o->interval < 2 || o->iters < 1 || o->hold_every < 2)
-        return gv_fail("adapt: interval %d, iterations %d, hold-back interval %d: need n >= 2, iterations >= 1 and "
-                       "every >= 2", o->interval, o->iters, o->hold_every);
+    if (o->interval < 2 || o->iters < 1 || o->hold_every < 2 || !(o->harm_max_loss_db >= 0))
+        return gv_fail("adapt: interval %d, iterations %d, hold-back interval %d, do-no-harm loss %g dB: need n >= 2, "
+                       "iterations >= 1, every >= 2 and a loss >= 0", o->interval, o->iters, o->hold_every,
+                       o->harm_max_loss_db);
     if (o->work_dir) snprintf(r->work_dir, sizeof r->work_dir, "%s", o->work_dir);
     else snprintf(r->work_dir, sizeof r->work_dir, "%s.work", o->out);
     gv_atomic_sweep_beside(o->out); /* the temporary of a scene checkpoint a kill cut short */

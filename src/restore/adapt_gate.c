@@ -1,6 +1,7 @@
-/* The gate of a scene adaptation (adapt.h): the held-back internal pairs restored exactly as
- * `restore` restores a scene's renders (the same sampler, composition and per-clip noise), and
- * their frames with ground truth measured against it, restored and as rendered. */
+/* The gate's measurement (adapt.h): clips restored exactly as `restore` restores a scene's
+ * renders (the same sampler, composition and per-clip noise), and their frames with ground
+ * truth measured against it, restored and as rendered. adapt.c runs it on the held-back
+ * internal pairs and on their do-no-harm clips. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -40,7 +41,7 @@ static int measure_clip(const gv_clip *clip, const uint8_t *restored, double sum
 }
 
 int gv_adapt_measure(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_latent_set *set, const gv_sampler *s,
-                     gv_compose compose, gv_scene_adaptation *a)
+                     gv_compose compose, gv_gate_measure *out)
 {
     double sums[4] = {0, 0, 0, 0};
     int frames = 0, rc = gv_sampler_check(s);
@@ -70,12 +71,9 @@ int gv_adapt_measure(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_l
     }
     gv_progress_finish(&bar);
     if (rc) return -1;
-    if (frames == 0) return gv_fail("gate: the held-back clips have no frame with ground truth");
-    a->gate_frames = frames;
-    a->gate_psnr_base = sums[0] / frames, a->gate_ssim_base = sums[1] / frames;
-    a->gate_psnr_restored = sums[2] / frames, a->gate_ssim_restored = sums[3] / frames;
-    char text[200];
-    gv_sampler_describe(s, text, sizeof text);
-    snprintf(a->gate_sampler, sizeof a->gate_sampler, "%s, %s composition", text, gv_compose_name(compose));
+    if (frames == 0) return gv_fail("gate: the clips of %s have no frame with ground truth", dataset_dir);
+    out->frames = frames;
+    out->psnr_base = sums[0] / frames, out->ssim_base = sums[1] / frames;
+    out->psnr_restored = sums[2] / frames, out->ssim_restored = sums[3] / frames;
     return 0;
 }

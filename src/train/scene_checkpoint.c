@@ -14,6 +14,14 @@
 #include "train/train_internal.h"
 
 double gv_scene_gate_change(const gv_scene_adaptation *a) { return a->gate_psnr_restored - a->gate_psnr_base; }
+double gv_scene_harm_change(const gv_scene_adaptation *a) { return a->harm_psnr_restored - a->harm_psnr_base; }
+
+int gv_scene_gate_decide(const gv_scene_adaptation *a)
+{
+    int gains = gv_scene_gate_change(a) > a->gate_margin_db && a->gate_frames >= a->gate_min_frames;
+    int harmless = a->harm_frames == 0 || gv_scene_harm_change(a) > -a->harm_max_loss_db;
+    return gains && harmless;
+}
 
 int gv_file_checksum(const char *path, char *out, size_t size)
 {
@@ -78,10 +86,12 @@ typedef struct {
     const char *key;
     field_type type;
     size_t offset, size;
+    int optional; /* absent from checkpoints written before it existed: read as 0 */
 } field;
 
-#define TEXT(k, m) {k, FIELD_TEXT, offsetof(gv_scene_adaptation, m), sizeof(((gv_scene_adaptation *)0)->m)}
-#define NUM(k, t, m) {k, t, offsetof(gv_scene_adaptation, m), 0}
+#define TEXT(k, m) {k, FIELD_TEXT, offsetof(gv_scene_adaptation, m), sizeof(((gv_scene_adaptation *)0)->m), 0}
+#define NUM(k, t, m) {k, t, offsetof(gv_scene_adaptation, m), 0, 0}
+#define LATER(k, t, m) {k, t, offsetof(gv_scene_adaptation, m), 0, 1}
 static const field fields[] = {
     TEXT("scene", scene), NUM("interval", FIELD_INT, interval), NUM("iters", FIELD_INT, iters),
     TEXT("base_checksum", base_checksum), NUM("train_clips", FIELD_INT, train_clips),
@@ -94,6 +104,9 @@ static const field fields[] = {
     NUM("gate_ssim_restored", FIELD_DOUBLE, gate_ssim_restored), TEXT("gate_sampler", gate_sampler),
     NUM("seconds_pairs", FIELD_DOUBLE, seconds_pairs), NUM("seconds_latents", FIELD_DOUBLE, seconds_latents),
     NUM("seconds_train", FIELD_DOUBLE, seconds_train), NUM("seconds_gate", FIELD_DOUBLE, seconds_gate),
+    LATER("harm_max_loss_db", FIELD_DOUBLE, harm_max_loss_db), LATER("harm_frames", FIELD_INT, harm_frames),
+    LATER("harm_psnr_base", FIELD_DOUBLE, harm_psnr_base), LATER("harm_psnr_restored", FIELD_DOUBLE, harm_psnr_restored),
+    LATER("harm_ssim_base", FIELD_DOUBLE, harm_ssim_base), LATER("harm_ssim_restored", FIELD_DOUBLE, harm_ssim_restored),
 };
 #define N_FIELDS (int)(sizeof fields / sizeof fields[0])
 
@@ -125,6 +138,7 @@ static int read_record(const gv_st_file *f, gv_scene_adaptation *a)
     for (int i = 0; i < N_FIELDS; i++) {
         const char *text = gv_st_metadata(f, fields[i].key);
         char *p = (char *)a + fields[i].offset, *end = NULL;
+        if (!text && fields[i].optional) continue;
         if (!text) return gv_fail("%s: metadata %s is missing (not a complete scene checkpoint)", f->path, fields[i].key);
         errno = 0;
         if (fields[i].type == FIELD_TEXT) snprintf(p, fields[i].size, "%s", text);
