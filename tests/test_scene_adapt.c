@@ -45,6 +45,22 @@ static void test_hold_back(void)
     gv_latent_set_free(&one);
 }
 
+/* The joined view: a's clips then b's, b's names prefixed, the clips shared (the sets still
+ * own them: freeing the view first, then the sets, frees each once, as ASan checks). */
+static void test_join(void)
+{
+    gv_latent_set a, b, view;
+    names_set(&a, 3);
+    names_set(&b, 2);
+    CHECK(gv_latent_set_join(&a, &b, "harm/", &view) == 0);
+    CHECK(view.count == 5 && !strcmp(view.names[0], "c00") && !strcmp(view.names[2], "c02"));
+    CHECK(!strcmp(view.names[3], "harm/c00") && !strcmp(view.names[4], "harm/c01"));
+    CHECK(view.clips[1].n == 1 && view.clips[3].n == 0 && view.clips[4].n == 1);
+    gv_latent_set_view_free(&view);
+    CHECK(view.count == 0 && a.count == 3 && !strcmp(a.names[2], "c02"));
+    gv_latent_set_free(&a), gv_latent_set_free(&b);
+}
+
 /* Largest |a - b| over the tensors of two networks whose names match `adapters` (1: the
  * adapters, 0: the rest). */
 static double max_diff(const gv_dit *a, const gv_dit *b, int adapters)
@@ -174,6 +190,7 @@ int main(void)
     const char *tmp = check_tmp_dir();
     gv_log_set_level(GV_LOG_QUIET);
     test_gate_decide();
+    test_join();
     test_hold_back();
     test_scene_checkpoint(tmp);
     return check_summary();

@@ -25,6 +25,8 @@ typedef struct {
                                         "residual": the output relearned from zero, starting at the
                                         identity; NULL or "base": the base's own */
     int fresh_camera;                /* the camera encoder from its initialisation, not the base's */
+    int harm_train;                  /* 1: fine-tune and validate on the do-no-harm clips too, so
+                                        the adapters learn to leave nearly clean renders alone */
     const char *out;                 /* the scene checkpoint */
     const char *work_dir;            /* NULL: out + ".work" */
     int downscale;                   /* scene images: 1, 2, 4, 8 (as splat train) */

@@ -81,6 +81,11 @@ int gv_adapters_load(const char *path, gv_dit *m);
  * (all is left empty): held-back pairs spread over the scene and over both subsets when every
  * is odd. Fails when either part would be empty. */
 int gv_latent_set_hold_back(gv_latent_set *all, int every, gv_latent_set *train, gv_latent_set *held);
+/* A view of a's clips followed by b's (b's names prefixed with b_prefix, so that the two stay
+ * distinct in the data's checksum): the clips are shared, not copied. Free it with
+ * gv_latent_set_view_free, before a and b. */
+int gv_latent_set_join(const gv_latent_set *a, const gv_latent_set *b, const char *b_prefix, gv_latent_set *out);
+void gv_latent_set_view_free(gv_latent_set *view);
 
 typedef struct {
     long step;                   /* the best step so far (-1: none yet) */

@@ -65,6 +65,8 @@ int cmd_adapt(int argc, char **argv)
         {"gate-margin", GV_FLAG_DOUBLE, &o.gate_margin_db, "DB", "restore only when the held-back PSNR gains more than DB (default 0)", 0},
         {"gate-min-frames", GV_FLAG_INT, &o.gate_min_frames, "K",
          "... measured on at least K held-back frames (default 4; fewer is too little evidence)", 0},
+        {"harm-train", GV_FLAG_BOOL, &o.harm_train, NULL,
+         "fine-tune and validate on the do-no-harm clips too (nearly clean renders the adapters must leave alone)", 0},
         {"harm-max-loss", GV_FLAG_DOUBLE, &o.harm_max_loss_db, "DB",
          "... and the do-no-harm clips (nearly clean renders) lose less than DB (default 0.05)", 0},
         {"sampler", GV_FLAG_STRING, &sampler, "NAME", "the sampler the gate restores with (default " GV_SAMPLER_DEFAULT ", restore's)", 0},

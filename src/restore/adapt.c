@@ -79,6 +79,7 @@ typedef struct {
     gv_restorer base;                /* the base: its network (adapters trained here), VAE, state */
     gv_latent_set train, held;
     gv_latent_set harm_unused, harm; /* the do-no-harm clips of the trained and held-back views */
+    gv_latent_set fit, check;        /* with harm_train: views of train + harm_unused, held + harm */
 } adapt_run;
 
 static void run_free(adapt_run *x)
@@ -86,6 +87,8 @@ static void run_free(adapt_run *x)
     gv_restorer_free(&x->base);
     gv_latent_set_free(&x->train);
     gv_latent_set_free(&x->held);
+    gv_latent_set_view_free(&x->fit);
+    gv_latent_set_view_free(&x->check);
     gv_latent_set_free(&x->harm_unused);
     gv_latent_set_free(&x->harm);
 }
@@ -119,7 +122,11 @@ static int load_model_and_data(const gv_adapt_options *o, const char *pairs, con
     if (x->harm.count != x->held.count)
         return gv_fail("%s: %d do-no-harm clips held back for %d internal pairs: the work folder is inconsistent",
                        harm, x->harm.count, x->held.count);
-    return 0;
+    if (!o->harm_train) return 0;
+    return gv_latent_set_join(&x->train, &x->harm_unused, "harm/", &x->fit) ||
+                   gv_latent_set_join(&x->held, &x->harm, "harm/", &x->check)
+               ? -1
+               : 0;
 }
 
 /* The gate's measurements: the held-back pairs and their do-no-harm clips, restored with the
@@ -206,11 +213,13 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
     gv_checkpoint_vae_checksum(&x->base.vae, meta.vae_checksum, sizeof meta.vae_checksum);
     snprintf(meta.base, sizeof meta.base, "%s", o->base);
     snprintf(meta.clips, sizeof meta.clips, "%s", pairs);
-    gv_train_data_text(&x->train, "train", meta.data, sizeof meta.data);
-    gv_info("adapt: %s n=%d: %d internal clips for training, %d held back; %ld steps of %d clips at lr %g (%s)",
-            a->scene, o->interval, x->train.count, x->held.count, to.steps, to.batch, to.lr,
+    const gv_latent_set *fit = o->harm_train ? &x->fit : &x->train, *check = o->harm_train ? &x->check : &x->held;
+    gv_train_data_text(fit, "train", meta.data, sizeof meta.data);
+    gv_info("adapt: %s n=%d: %d internal clips for training, %d held back%s; %ld steps of %d clips at lr %g (%s)",
+            a->scene, o->interval, x->train.count, x->held.count,
+            o->harm_train ? ", each with its do-no-harm clip" : "", to.steps, to.batch, to.lr,
             gv_lr_kind_name(to.lr_schedule));
-    rc = gv_adapt_train(&x->base.net, &x->base.cfg, &x->train, &x->held, &to, &meta, best_path, &r->best, &r->train);
+    rc = gv_adapt_train(&x->base.net, &x->base.cfg, fit, check, &to, &meta, best_path, &r->best, &r->train);
     if (rc) return rc < 0 ? -1 : 0; /* 1: stopped before the last step */
     a->seconds_train = gv_now() - t, t = gv_now();
 

@@ -47,6 +47,39 @@ int gv_latent_set_hold_back(gv_latent_set *all, int every, gv_latent_set *train,
     return 0;
 }
 
+int gv_latent_set_join(const gv_latent_set *a, const gv_latent_set *b, const char *b_prefix, gv_latent_set *out)
+{
+    memset(out, 0, sizeof *out);
+    int count = a->count + b->count;
+    out->clips = calloc((size_t)count, sizeof *out->clips);
+    out->names = calloc((size_t)count, sizeof *out->names);
+    if (!out->clips || !out->names) {
+        gv_latent_set_view_free(out);
+        return gv_fail("out of memory for %d clips", count);
+    }
+    for (int i = 0; i < count; i++) {
+        const gv_latent_set *from = i < a->count ? a : b;
+        int k = i < a->count ? i : i - a->count;
+        out->clips[i] = from->clips[k];
+        size_t len = strlen(from->names[k]) + (from == b ? strlen(b_prefix) : 0) + 1;
+        if (!(out->names[i] = malloc(len))) {
+            gv_latent_set_view_free(out);
+            return gv_fail("out of memory for %d clips", count);
+        }
+        snprintf(out->names[i], len, "%s%s", from == b ? b_prefix : "", from->names[k]);
+        out->count = i + 1;
+    }
+    snprintf(out->cache_path, sizeof out->cache_path, "%s", a->cache_path);
+    return 0;
+}
+
+void gv_latent_set_view_free(gv_latent_set *view)
+{
+    for (int i = 0; view->names && i < view->count; i++) free(view->names[i]);
+    free(view->names), free(view->clips);
+    memset(view, 0, sizeof *view);
+}
+
 /* ---- the best step ------------------------------------------------------------------------- */
 typedef struct {
     const char *path;

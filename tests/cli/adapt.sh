@@ -18,6 +18,7 @@ data_bytes() {
 }
 same_data() { cmp -s <(data_bytes "$1") <(data_bytes "$2"); }
 meta() { "$G" st inspect --json "$1" | tr ',' '\n' | grep -F "\"$2\":" | head -1; }
+files_differ() { ! cmp -s "$1" "$2"; }
 
 
 CONFIGS="$(cd "$(dirname "$0")/../../configs" && pwd)"
@@ -91,6 +92,17 @@ check "the minimum recorded" test "$(meta few.safetensors gate_min_frames | grep
 expect 0 "gate open" -- "$G" adapt "${AD[@]}" --out open.safetensors --work b.work --gate-margin -1000 --gate-min-frames 1
 has "gate open"
 check "same adapters either way" same_data closed.safetensors open.safetensors
+# The do-no-harm clips: built beside the pairs, measured by the gate, recorded.
+has "their do-no-harm clips"
+check "the do-no-harm clips are a dataset" "$G" dataset stats b.work/harm
+check "their frames recorded" test "$(meta open.safetensors harm_frames | grep -oE '[0-9]+')" = 1
+check "the loss allowed recorded" grep -q "0.05" <(meta open.safetensors harm_max_loss_db)
+expect 2 "a negative loss allowed" -- "$G" adapt "${AD[@]}" --out x.safetensors --harm-max-loss -1
+# Fine-tuned on them too: other training data, so another fine-tuning (not the b.work one).
+expect 0 "adapt --harm-train" -- "$G" adapt "${AD[@]}" --out h.safetensors --work h.work --harm-train
+check "trained with them" grep -qF "1 held back, each with its do-no-harm clip" "$T/err"
+check "another trajectory than without them" files_differ a.safetensors.work/train.safetensors h.work/train.safetensors
+expect 1 "a work folder of other data" -- "$G" adapt "${AD[@]}" --out h2.safetensors --work b.work --harm-train --steps 6
 
 # restore and eval honour the gate, on the scene's renders at n = 4 (a dataset of scene A).
 expect 0 "renders at n = 4" -- "$G" dataset build --scenes A --intervals 4 --iters 20 --clips-per-run 2 --seed 5 \
@@ -111,7 +123,6 @@ check "closed gate: restored PSNR = baseline PSNR" test "$(psnrs closed.json)" -
 expect 0 "restore, gate open" -- "$G" restore --ckpt open.safetensors --clips R --out restored --save-clips --quiet
 has "gate open"
 has "the renders are restored"
-files_differ() { ! cmp -s "$1" "$2"; }
 check "open gate: the network restores" files_differ "${clips[0]}" "restored/$(basename "${clips[0]}")"
 expect 0 "restore one clip, gate closed" -- "$G" restore --ckpt closed.safetensors --clip "${clips[1]}" --out one --quiet
 has "left unchanged"
