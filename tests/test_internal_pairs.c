@@ -93,7 +93,7 @@ static int fake_render(void *ctx, void *model, const gv_scene *scene, int frame,
 static void fake_free(void *ctx, void *model) { free(model); }
 
 static fake_state state;
-static const gv_artifact_simulator fake = {"fake", fake_train, fake_render, fake_free, &state};
+static const gv_artifact_simulator fake = {"fake", fake_train, fake_render, fake_free, &state, NULL}; /* no depth: no coverage plane */
 
 /* ---- the plan ---------------------------------------------------------------------------- */
 static void test_plan(void)

@@ -66,7 +66,8 @@ static int clip_present(const build_ctx *b, int i)
     return !strcmp(have.id.scene, want.id.scene) && have.id.n == want.id.n && have.offset == want.offset &&
            have.iters == want.iters && have.seed == want.seed && have.width == want.width &&
            have.height == want.height && !memcmp(have.frames, want.frames, sizeof want.frames) &&
-           !memcmp(have.no_target, want.no_target, sizeof want.no_target);
+           !memcmp(have.no_target, want.no_target, sizeof want.no_target) &&
+           have.has_coverage == (b->sim->depth != NULL); /* clips from before the coverage plane: rebuilt */
 }
 
 static int fits(const gv_image *img, const gv_clip_info *info)
@@ -75,7 +76,8 @@ static int fits(const gv_image *img, const gv_clip_info *info)
 }
 
 /* Clip i from the subset's model: clean anchors, the renders of frames 1-3 as inputs, the
- * middle frame's ground truth as its target; the masked frames' targets repeat their inputs. */
+ * middle frame's ground truth as its target; the masked frames' targets repeat their inputs;
+ * the coverage plane by the subset's depth when the simulator renders depth. */
 static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int i)
 {
     const gv_internal_clip *c = &b->clips[i];
@@ -101,6 +103,9 @@ static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int
         }
         gv_image_free(&truth), gv_image_free(&render);
     }
+    int view_frames[GV_CLIP_FRAMES];
+    for (int f = 0; f < GV_CLIP_FRAMES; f++) view_frames[f] = c->frames[f] - info.offset;
+    if (rc == 0 && b->sim->depth) rc = gv_clip_coverage_simulated(&clip, b->sim, model, view, view_frames);
     char file[GV_SCENE_NAME_MAX + 64], path[4096];
     if (rc == 0) rc = clip_path(b, i, file, sizeof file, path, sizeof path);
     if (rc == 0) rc = gv_clip_write(path, &clip);
