@@ -3,8 +3,8 @@
 # a tiny pipeline made here: `dataset build` with sparse 3DGS writes each clip's coverage
 # plane; without the variant, eval and restore give the same numbers and frames, byte for
 # byte, on the clips with the plane and on the same clips without it (as every clip before
-# the plane: stripped here); with the variant the plane reaches the network (another result)
-# and the checkpoint records the variant. One thread.
+# the plane: stripped here); with the variant the checkpoint records it and its latents are
+# cached apart. One thread.
 # Usage: bash coverage_mask.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup coverage_mask "$1"
