@@ -1,7 +1,8 @@
 /* The coverage plane of a clip and the VACE mask it gives (dataset.h "clip_coverage.c",
  * condition.h, variant coverage): the plane's round trip through a clip file and its absence
  * in older clips; the plane of a hand-built view (a fronto-parallel wall seen by two shifted
- * anchors, one partly occluded) against positions derived by hand; the per-pixel VACE context
+ * anchors, one partly occluded) against positions derived by hand, from depth maps and from a
+ * wall of Gaussians; the per-pixel VACE context
  * of a clip whose coverage is known halves against our own encoding of V (1 - M) and V M and
  * the exact unshuffled mask; and that without the variant nothing changes. */
 #include <omp.h>
@@ -22,6 +23,8 @@ static int covered_by_hand(int frame, int y, int x)
            : frame == 2 ? (x >= W / 2 ? GV_COVERED_LAST : 0)
                         : (y < H / 2 ? GV_COVERED_FIRST | GV_COVERED_LAST : 0);
 }
+
+static void wall_cameras(gv_camera cam[5], const gv_camera *cams[5]);
 
 static void add_halves(gv_clip *clip)
 {
@@ -73,13 +76,8 @@ static void test_plane_by_hand(void)
     const gv_camera *cams[5];
     float *depth[5];
     const float *depths[5];
-    const double centre[5] = {1, 0, 0, 0, -1};
+    wall_cameras(cam, cams);
     for (int f = 0; f < 5; f++) {
-        memset(&cam[f], 0, sizeof cam[f]);
-        cam[f].width = W, cam[f].height = H, cam[f].fx = cam[f].fy = 16, cam[f].cx = W / 2.0, cam[f].cy = H / 2.0;
-        cam[f].R[0] = cam[f].R[4] = cam[f].R[8] = 1;
-        cam[f].t[0] = -centre[f];
-        cams[f] = &cam[f];
         depth[f] = malloc(PLANE * sizeof(float));
         for (int p = 0; p < PLANE; p++) depth[f][p] = 2.0f;
         depths[f] = depth[f];
@@ -100,6 +98,63 @@ static void test_plane_by_hand(void)
     cam[3].width = W / 2;
     CHECK_FAILS_WITH(gv_clip_coverage_from_depths(&clip, cams, depths, GV_COVERAGE_TOLERANCE), "frame 3");
     for (int f = 0; f < 5; f++) free(depth[f]);
+    gv_clip_free(&clip);
+}
+
+/* The 5 cameras of the hand-built views: looking down +z, fx = 16, centres at x = 1 (the first
+ * anchor), 0 (the intermediates) and -1 (the last anchor). */
+static void wall_cameras(gv_camera cam[5], const gv_camera *cams[5])
+{
+    const double centre[5] = {1, 0, 0, 0, -1};
+    for (int f = 0; f < 5; f++) {
+        memset(&cam[f], 0, sizeof cam[f]);
+        cam[f].width = W, cam[f].height = H, cam[f].fx = cam[f].fy = 16, cam[f].cx = W / 2.0, cam[f].cy = H / 2.0;
+        cam[f].R[0] = cam[f].R[4] = cam[f].R[8] = 1;
+        cam[f].t[0] = -centre[f];
+        cams[f] = &cam[f];
+    }
+}
+
+/* The same wall made of Gaussians (flat, opaque, 0.1 apart over x, y in [-3.5, 3.5] at z = 2),
+ * through gv_clip_coverage_gaussians (what `reconstruct` calls): its rendered depth is 2
+ * wherever a camera looks, so the plane is the hand-derived one without the occluder. */
+static void test_plane_of_gaussians(void)
+{
+    gv_gaussians g;
+    const int side = 71;
+    CHECK(gv_gaussians_alloc(&g, side * side, 0) == 0);
+    for (int i = 0; i < side * side; i++) {
+        g.means[3 * i] = -3.5f + 0.1f * (float)(i % side), g.means[3 * i + 1] = -3.5f + 0.1f * (float)(i / side);
+        g.means[3 * i + 2] = 2;
+        g.scales[3 * i] = g.scales[3 * i + 1] = logf(0.08f), g.scales[3 * i + 2] = logf(0.001f);
+        g.rotations[4 * i] = 1, g.rotations[4 * i + 1] = g.rotations[4 * i + 2] = g.rotations[4 * i + 3] = 0;
+        g.opacities[i] = 5;
+        g.sh[3 * i] = g.sh[3 * i + 1] = g.sh[3 * i + 2] = 0.5f;
+    }
+    gv_clip_info info;
+    memset(&info, 0, sizeof info);
+    info.width = W, info.height = H;
+    gv_clip clip;
+    CHECK(gv_clip_alloc(&clip, &info) == 0);
+    gv_camera cam[5];
+    const gv_camera *cams[5];
+    wall_cameras(cam, cams);
+    CHECK(gv_clip_coverage_gaussians(&clip, &g, cams, GV_COVERAGE_TOLERANCE, GV_COVERAGE_MIN_OPACITY) == 0);
+    int wrong = 0;
+    for (int f = 1; clip.coverage && f <= 3; f++)
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                int want = (x >= 8 ? GV_COVERED_FIRST : 0) | (x <= 23 ? GV_COVERED_LAST : 0);
+                wrong += clip.coverage[(f - 1) * PLANE + y * W + x] != want;
+            }
+    CHECK(clip.coverage && wrong == 0);
+    /* nothing seen where the model shows nothing: an empty model covers no pixel */
+    g.n = 0;
+    CHECK(gv_clip_coverage_gaussians(&clip, &g, cams, GV_COVERAGE_TOLERANCE, GV_COVERAGE_MIN_OPACITY) == 0);
+    int seen = 0;
+    for (int i = 0; clip.coverage && i < 3 * PLANE; i++) seen += clip.coverage[i] != 0;
+    CHECK(seen == 0);
+    gv_gaussians_free(&g);
     gv_clip_free(&clip);
 }
 
@@ -205,6 +260,7 @@ int main(void)
     omp_set_num_threads(1);
     test_clip_file(tmp);
     test_plane_by_hand();
+    test_plane_of_gaussians();
     test_vace_context();
     test_variant_rules();
     return check_summary();
