@@ -48,6 +48,11 @@ typedef struct {
     uint64_t seed;                   /* subset p trains with gv_run_seed(seed, scene, 2n) ^ (p * golden) */
     const gv_artifact_simulator *simulator; /* NULL: sparse 3DGS (gv_artifact_3dgs) */
     const char *out_dir;             /* the dataset folder written */
+    int coverage;                    /* 1: every clip must carry its coverage plane (the variant
+                                        coverage): needs a simulator that renders depth, and a
+                                        folder built before the plane is rebuilt. 0: the plane
+                                        is written when the simulator renders depth, and older
+                                        folders are taken as they are */
 } gv_internal_options;
 
 typedef struct {

@@ -67,7 +67,7 @@ static int clip_present(const build_ctx *b, int i)
            have.iters == want.iters && have.seed == want.seed && have.width == want.width &&
            have.height == want.height && !memcmp(have.frames, want.frames, sizeof want.frames) &&
            !memcmp(have.no_target, want.no_target, sizeof want.no_target) &&
-           have.has_coverage == (b->sim->depth != NULL); /* clips from before the coverage plane: rebuilt */
+           (have.has_coverage || !b->o->coverage); /* from before the coverage plane: rebuilt when needed */
 }
 
 static int fits(const gv_image *img, const gv_clip_info *info)
@@ -210,7 +210,12 @@ static int already_built(const build_ctx *b)
     int complete = same && m.n_clips == b->count;
     for (int i = 0; complete && i < m.n_clips; i++) {
         char path[4096];
+        gv_clip_info info;
         complete = gv_path_join(path, sizeof path, b->o->out_dir, m.clips[i].file) == 0 && gv_file_exists(path);
+        if (complete && b->o->coverage) { /* the coverage mask needs every clip's plane */
+            complete = gv_clip_read_info(path, &info) == 0 && info.has_coverage;
+            gv_clear_error();
+        }
     }
     gv_manifest_free(&m);
     if (!same)
@@ -228,6 +233,9 @@ int gv_internal_build(const gv_scene *scene, const gv_internal_options *o, gv_in
     memset(&b, 0, sizeof b);
     b.scene = scene, b.o = o, b.sim = o->simulator ? o->simulator : &gv_artifact_3dgs;
     if (o->iters < 1) return gv_fail("internal pairs: iterations %d: must be at least 1", o->iters);
+    if (o->coverage && !b.sim->depth)
+        return gv_fail("internal pairs: the coverage mask needs the clips' coverage plane, and the artifact "
+                       "simulator %s renders no depth", b.sim->name);
     if (gv_scene_name_of(scene->dir, b.name, sizeof b.name)) return -1;
     if (gv_internal_check(scene->n_frames, o->interval)) return gv_fail_context("%s", scene->dir);
     b.clips = malloc((size_t)scene->n_frames * sizeof *b.clips);
