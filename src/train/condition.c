@@ -124,9 +124,9 @@ int gv_condition_vace_mask(const gv_model_config *cfg, const gv_clip *clip, floa
     if (gv_vace_frame_mask(cfg->variant.anchors, GV_CLIP_FRAMES, frame_mask)) return -1;
     for (int f = 0; f < GV_CLIP_FRAMES; f++) {
         float *m = mask + f * plane;
-        const uint8_t *seen = clip->coverage ? clip->coverage + (f - 1) * plane : NULL;
-        int per_pixel = cfg->variant.coverage && seen && f > 0 && f < GV_CLIP_FRAMES - 1;
-        for (int64_t p = 0; p < plane; p++) m[p] = per_pixel ? (seen[p] ? 0.0f : 1.0f) : frame_mask[f];
+        int per_pixel = cfg->variant.coverage && clip->coverage && f > 0 && f < GV_CLIP_FRAMES - 1;
+        const uint8_t *seen = per_pixel ? clip->coverage + (f - 1) * plane : NULL;
+        for (int64_t p = 0; p < plane; p++) m[p] = seen ? (seen[p] ? 0.0f : 1.0f) : frame_mask[f];
     }
     return 0;
 }
