@@ -90,7 +90,7 @@ static int fake_render(void *ctx, void *model, const gv_scene *scene, int frame,
 static void fake_free(void *ctx, void *model) { free(model); }
 
 static fake_state state;
-static const gv_artifact_simulator fake = {"fake", fake_train, fake_render, fake_free, &state};
+static const gv_artifact_simulator fake = {"fake", fake_train, fake_render, fake_free, &state, NULL}; /* no depth: no coverage plane */
 
 /* ---- helpers ------------------------------------------------------------------------- */
 
@@ -406,6 +406,12 @@ static void test_end_to_end(const char *base)
     CHECK(clip.info.frames[0] == 6 && clip.info.frames[4] == 12 && clip.info.iters == 30);
     size_t frame = 32 * 24 * 3;
     CHECK(memcmp(clip.inputs + frame, clip.targets + frame, frame) != 0); /* a render, not the truth */
+    /* sparse 3DGS renders depth, so the clip carries the coverage plane: two anchor bits per
+     * pixel, and neighbouring views of a room see part of each intermediate */
+    CHECK(clip.info.has_coverage && clip.coverage != NULL);
+    size_t seen = 0, bad = 0, plane = 32 * 24;
+    for (size_t i = 0; clip.coverage && i < 3 * plane; i++) bad += clip.coverage[i] > 3, seen += clip.coverage[i] != 0;
+    CHECK(bad == 0 && seen > 0);
     gv_clip_free(&clip);
 }
 

@@ -92,8 +92,17 @@ static int fake_render(void *ctx, void *model, const gv_scene *scene, int frame,
 
 static void fake_free(void *ctx, void *model) { free(model); }
 
+/* Depth 1 at every pixel: a wall just in front of every camera. */
+static int fake_depth(void *ctx, void *model, const gv_scene *scene, int frame, float *depth)
+{
+    (void)ctx, (void)model, (void)scene, (void)frame;
+    for (int p = 0; p < W * H; p++) depth[p] = 1.0f;
+    return 0;
+}
+
 static fake_state state;
-static const gv_artifact_simulator fake = {"fake", fake_train, fake_render, fake_free, &state};
+static const gv_artifact_simulator fake = {"fake", fake_train, fake_render, fake_free, &state, NULL}; /* no depth: no coverage plane */
+static const gv_artifact_simulator fake_with_depth = {"fake", fake_train, fake_render, fake_free, &state, fake_depth};
 
 /* ---- the plan ---------------------------------------------------------------------------- */
 static void test_plan(void)
@@ -258,7 +267,7 @@ static void test_build(const char *base)
             CHECK(remove(path) == 0);
         }
     snprintf(out, sizeof out, "%s/pairs", base);
-    gv_internal_options o = {N, 7, 4, &fake, out, 0};
+    gv_internal_options o = {N, 7, 4, &fake, out, 0, 0};
     gv_internal_result r;
     memset(&state, 0, sizeof state);
     CHECK(gv_internal_build(&scene, &o, &r) == 0);
@@ -300,6 +309,19 @@ static void test_build(const char *base)
     snprintf(other_out, sizeof other_out, "%s/pairs5", base);
     other.out_dir = other_out;
     CHECK_FAILS_WITH(gv_internal_build(&scene, &other, &r), "4 training views at n = 5");
+
+    /* the coverage mask needs every clip's plane: not from a simulator without depth; a folder
+     * built before the plane is rebuilt, then taken as it is; without the mask both are taken */
+    other = o;
+    other.coverage = 1;
+    CHECK_FAILS_WITH(gv_internal_build(&scene, &other, &r), "renders no depth");
+    other.simulator = &fake_with_depth;
+    memset(&state, 0, sizeof state);
+    CHECK(gv_internal_build(&scene, &other, &r) == 0 && r.subsets_trained == 2 && r.clips == 5);
+    gv_clip_info info;
+    CHECK(gv_clip_read_info(clip1, &info) == 0 && info.has_coverage);
+    CHECK(gv_internal_build(&scene, &other, &r) == 0 && r.subsets_trained == 0);
+    CHECK(gv_internal_build(&scene, &o, &r) == 0 && r.subsets_trained == 0);
     gv_scene_free(&scene);
 }
 
@@ -313,7 +335,7 @@ static void test_build_harm(const char *base)
     gv_scene scene;
     CHECK(gv_scene_load(scene_dir, NULL, &scene) == 0);
     snprintf(out, sizeof out, "%s/harm", base);
-    gv_internal_options o = {N, 7, 4, &fake, out, 1};
+    gv_internal_options o = {N, 7, 4, &fake, out, 1, 0};
     gv_internal_result r;
     memset(&state, 0, sizeof state);
     CHECK(gv_internal_build(&scene, &o, &r) == 0);

@@ -15,7 +15,11 @@
  * anchors, corrupted renders); M = 0 on the anchors of the config's anchors variant, 1
  * elsewhere; inactive = video (1 - M), reactive = video M, each VAE-encoded (normalised);
  * the mask pixel-unshuffled to the latent grid. So the reactive part of the intermediates is
- * the corrupted render, as in the authors' pipeline (reference 1.2 step 2). An end frame that
+ * the corrupted render, as in the authors' pipeline (reference 1.2 step 2). With the variant
+ * coverage (model_config.h) and a clip that carries its coverage plane (dataset.h), M on an
+ * intermediate is per pixel: 1 where neither anchor sees the pixel (complete it), 0 where one
+ * does (the render agrees with what an anchor shows: keep it, as an anchor's pixel is kept);
+ * a clip without the plane gets the per-frame M. An end frame that
  * is not an anchor of the variant (anchors first / none) is blanked (0 = mid-grey) in the
  * input clip, in z_corrupt and in the context: the ablation must not see its clean view.
  * Configs with text cross-attention take the model's text context [batch, text_len, text_dim]
@@ -82,6 +86,9 @@ void gv_clip_cameras(const gv_clip *clip, gv_camera cams[GV_CLIP_FRAMES]);
 /* Frames [first, first + count) of a clip's inputs or targets (8-bit HWC) as a video
  * [3, count, H, W] with values p / 127.5 - 1 (the VAE's range). */
 void gv_clip_video(const uint8_t *frames, const gv_clip_info *info, int first, int count, float *video);
+/* The pixel mask M [5, H, W] of a clip's VACE context (above): the anchors variant's per
+ * frame, and per pixel on the intermediates with the variant coverage and the clip's plane. */
+int gv_condition_vace_mask(const gv_model_config *cfg, const gv_clip *clip, float *mask);
 /* 1 for the frames the variant blanks in the input (an end frame that is not an anchor). */
 int gv_condition_frame_blanked(const gv_model_config *cfg, int frame);
 

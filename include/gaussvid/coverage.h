@@ -10,7 +10,10 @@
 #ifndef GAUSSVID_COVERAGE_H
 #define GAUSSVID_COVERAGE_H
 
+#include <stdint.h>
+
 #include "gaussvid/gaussians.h"
+#include "gaussvid/render.h"
 #include "gaussvid/scene.h"
 
 #define GV_COVERAGE_TOLERANCE 0.05  /* relative depth agreement of the occlusion test */
@@ -66,5 +69,27 @@ typedef struct {
     double uncovered_error_share, uncovered_error_share_mean;
 } gv_coverage_summary;
 void gv_coverage_summarise(const gv_coverage_frame *r, int n, gv_coverage_summary *s);
+
+/* ---- the coverage plane of a view (coverage_plane.c) ---------------------------------------
+ * What the restorer is told about a corrupted frame (condition.h, variant coverage): per pixel,
+ * which of the clip's two anchors sees the surface the model shows there, by the same
+ * reprojection and occlusion test as above. Bit 0 (GV_COVERED_FIRST): the first anchor sees
+ * it; bit 1 (GV_COVERED_LAST): the last anchor does; 0: no anchor sees it, the network must
+ * complete it. */
+#define GV_COVERED_FIRST 1
+#define GV_COVERED_LAST 2
+
+/* The model's depth at a camera as the coverage uses it: the expected view depth where the
+ * accumulated opacity reaches opt->min_opacity, 0 elsewhere (width x height floats). r is a
+ * renderer to reuse (zeroed at first); opt may be NULL for the defaults. */
+int gv_coverage_depth(gv_splat_renderer *r, const gv_gaussians *g, const gv_camera *cam,
+                      const gv_coverage_options *opt, float *depth);
+
+/* The coverage plane (target width x height bytes, the bits above) of a target view with its
+ * depth by the two anchors with theirs (gv_coverage_depth), occlusion test at rel_tolerance.
+ * scratch holds width x height bytes. */
+int gv_coverage_plane(const gv_camera *target, const float *target_depth, const gv_camera *const anchors[2],
+                      const float *const anchor_depths[2], double rel_tolerance, uint8_t *scratch,
+                      uint8_t *plane);
 
 #endif

@@ -14,6 +14,7 @@
 #include <stdint.h>
 
 #include "gaussvid/core.h"
+#include "gaussvid/gaussians.h"
 #include "gaussvid/image.h"
 #include "gaussvid/scene.h"
 
@@ -76,7 +77,10 @@ int gv_parse_intervals(const char *text, int *intervals, int max, int *count);
  * (fx, fy, cx, cy in pixels), poses F32 [5, 3, 4] (world-to-camera [R | t], OpenCV axes).
  * __metadata__: format, format_version, scene, split, n, anchor_gap, frame_indices (JSON
  * list), frame_names (JSON list), iters, sampling, seed, width, height; and, only when they
- * are not 0, offset and target_mask (JSON list of 5: 1 ground truth, 0 none). */
+ * are not 0, offset and target_mask (JSON list of 5: 1 ground truth, 0 none). Optional
+ * tensor coverage U8 [3, H, W]: the coverage plane of frames 1-3 (gv_clip.coverage; written by
+ * builders whose simulator renders depth, clip_coverage.c); a clip without it reads with
+ * coverage NULL. */
 typedef struct {
     gv_run_id id;
     int anchor_gap, iters;
@@ -90,6 +94,7 @@ typedef struct {
     int offset;                      /* the sparse model's training views are offset + k n */
     uint8_t no_target[GV_CLIP_FRAMES]; /* 1: an intermediate without ground truth (its targets
                                           frame repeats its input; losses skip it) */
+    uint8_t has_coverage;            /* read: the file holds the coverage plane (gv_clip.coverage) */
 } gv_clip_info;
 
 typedef struct {
@@ -98,9 +103,14 @@ typedef struct {
     uint8_t *targets;                /* the same layout */
     float intrinsics[GV_CLIP_FRAMES][4];
     float poses[GV_CLIP_FRAMES][12]; /* row-major 3 x 4 */
+    uint8_t *coverage;               /* NULL, or the coverage plane of the intermediates (frames
+                                        1-3): 3 * height * width bytes, [frame - 1][y][x], per pixel
+                                        the bits of coverage.h (GV_COVERED_FIRST: anchor 0 sees it,
+                                        GV_COVERED_LAST: anchor 4 does; 0: no anchor) */
 } gv_clip;
 
-/* Allocates zeroed inputs and targets for info->width x info->height and copies info. */
+/* Allocates zeroed inputs and targets for info->width x info->height and copies info (no
+ * coverage plane). */
 int gv_clip_alloc(gv_clip *clip, const gv_clip_info *info);
 void gv_clip_free(gv_clip *clip);
 /* Pointer to frame f (0..4) of inputs or targets. */
@@ -120,6 +130,19 @@ int gv_clip_write(const char *path, const gv_clip *clip);
 int gv_clip_read(const char *path, gv_clip *clip);
 /* Reads and validates only the metadata and the tensors' dtypes and shapes. */
 int gv_clip_read_info(const char *path, gv_clip_info *info);
+
+/* ---- clip_coverage.c: the coverage plane of a clip ---------------------------------------
+ * Each intermediate's pixels seen by the clip's anchors (frames 0 and 4) through the depth of
+ * the sparse model that rendered it (gv_coverage_plane, coverage.h). The functions allocate
+ * clip->coverage when it is NULL. cams are the cameras of the clip's 5 frames. */
+/* From the model's depth at the 5 frames (gv_coverage_depth's convention: 0 = no surface). */
+int gv_clip_coverage_from_depths(gv_clip *clip, const gv_camera *const cams[GV_CLIP_FRAMES],
+                                 const float *const depths[GV_CLIP_FRAMES], double rel_tolerance);
+/* From a 3DGS model (what `reconstruct` has when it builds its clips): its depth where the
+ * accumulated opacity reaches min_opacity (GV_COVERAGE_MIN_OPACITY, GV_COVERAGE_TOLERANCE are
+ * the defaults of coverage.h). */
+int gv_clip_coverage_gaussians(gv_clip *clip, const gv_gaussians *g, const gv_camera *const cams[GV_CLIP_FRAMES],
+                               double rel_tolerance, double min_opacity);
 
 /* ---- sheet.c ---------------------------------------------------------------------------- */
 /* Contact sheet of a clip: the 5 inputs in a row above the 5 targets, frames separated by
@@ -212,10 +235,20 @@ typedef struct {
     int (*render)(void *ctx, void *model, const gv_scene *scene, int frame, gv_image *out);
     void (*free_model)(void *ctx, void *model);
     void *ctx;
+    /* Optional (NULL: the clips get no coverage plane): the model's view depth at frame `frame`
+     * into depth (camera size), 0 where it shows no surface (gv_coverage_depth). */
+    int (*depth)(void *ctx, void *model, const gv_scene *scene, int frame, float *depth);
 } gv_artifact_simulator;
 
+/* The coverage plane of a simulated clip: the simulator's depth at the clip's frames (indices
+ * in `scene`, the scene the model was trained on), then gv_clip_coverage_from_depths at the
+ * default tolerance. Fails when the simulator renders no depth. */
+int gv_clip_coverage_simulated(gv_clip *clip, const gv_artifact_simulator *sim, void *model, const gv_scene *scene,
+                               const int frames[GV_CLIP_FRAMES]);
+
 /* Sparse 3DGS (gv_splat_train with the reference defaults, stopped at --iters), rendered
- * with every SH degree over the training background and quantised to 8 bits. */
+ * with every SH degree over the training background and quantised to 8 bits; its depth is
+ * gv_coverage_depth's at the default minimum opacity, so its clips carry the coverage plane. */
 extern const gv_artifact_simulator gv_artifact_3dgs;
 
 typedef struct {

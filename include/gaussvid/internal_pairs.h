@@ -18,7 +18,7 @@
  * 2n, the subset's first view as "offset" and the mask as "target_mask" (dataset.h).
  *
  * The do-no-harm clips (full_model) have the same frames and mask, rendered by the simulator
- * trained on every training view at n (offset 0, interval n): frames 1 and 3 are renders like
+ * trained on every training view at n (their metadata stay the pairs'): frames 1 and 3 are renders like
  * those the restorer must restore, and frame 2, a training view of that model, is nearly clean.
  * A restorer that changes it for the worse overshoots (the gate's second test, adapt.h). */
 #ifndef GAUSSVID_INTERNAL_PAIRS_H
@@ -54,6 +54,11 @@ typedef struct {
     const gv_artifact_simulator *simulator; /* NULL: sparse 3DGS (gv_artifact_3dgs) */
     const char *out_dir;             /* the dataset folder written */
     int full_model;                  /* 1: the do-no-harm clips instead of the internal pairs */
+    int coverage;                    /* 1: every clip must carry its coverage plane (the variant
+                                        coverage): needs a simulator that renders depth, and a
+                                        folder built before the plane is rebuilt. 0: the plane
+                                        is written when the simulator renders depth, and older
+                                        folders are taken as they are */
 } gv_internal_options;
 
 typedef struct {

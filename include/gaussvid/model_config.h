@@ -74,6 +74,9 @@ typedef struct {
                           (docs/TRAINING.md "Output parameterisation"); changes no weight */
     int residual;      /* fine-tuned output as the restoration residual: eps - v = z_hat + F, the
                           head relearned from zero and trained (docs/TRAINING.md); not with skip */
+    int coverage;      /* the VACE mask M per pixel on the intermediates: 1 where no anchor sees the
+                          pixel, 0 where one does (the clip's coverage plane; condition.h); needs
+                          anchors both, not per-frame; changes no weight */
 } gv_variant_config;
 
 typedef struct {
@@ -97,7 +100,8 @@ int gv_model_config_load(gv_model_config *c, const char *preset_or_path);
 int gv_model_config_parse(gv_model_config *c, const char *json, const char *source);
 /* Checks every field and the fields' agreement (heads divide dim, in_dim = z_dim, ...). */
 int gv_model_config_validate(const gv_model_config *c, const char *source);
-/* The config as indented JSON with every field (malloc'd; free with free()), or NULL. */
+/* The config as indented JSON with every field (variant.coverage only when true, so the configs
+ * of the other variants read as before) (malloc'd; free with free()), or NULL. */
 char *gv_model_config_to_json(const gv_model_config *c);
 /* Writes the JSON form to a file atomically. */
 int gv_model_config_write(const gv_model_config *c, const char *path);
@@ -106,9 +110,9 @@ int gv_model_config_equal(const gv_model_config *a, const gv_model_config *b);
 
 /* ---- variants ------------------------------------------------------------------------- */
 /* Applies overrides "key=value[,key=value...]": camera=none|early|monolithic|decomposed,
- * anchors=none|first|both, per_frame=true|false, skip=true|false, residual=true|false, lora=RANK
- * (0 removes the adapters); a bare camera name, "per-frame", "skip" or "residual" is short for
- * the key form. Validates the result. */
+ * anchors=none|first|both, per_frame=true|false, skip=true|false, residual=true|false,
+ * coverage=true|false, lora=RANK (0 removes the adapters); a bare camera name, "per-frame",
+ * "skip", "residual" or "coverage" is short for the key form. Validates the result. */
 int gv_model_config_set_variant(gv_model_config *c, const char *spec, const char *source);
 const char *gv_camera_variant_name(gv_camera_variant v);
 const char *gv_anchors_name(gv_anchors a);

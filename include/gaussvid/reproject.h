@@ -27,7 +27,8 @@ int gv_reproject_point(const gv_camera *from, double u, double v, double z, cons
  * from across a depth edge are not mixed in. Uncovered pixels get colour 0.
  * Sizes are the cameras': target_depth, covered target W x H; warped_rgb target W x H x 3;
  * anchor_depth anchor W x H; anchor_rgb anchor W x H x 3 (HWC floats). covered gets 1 or 0
- * per pixel. Fails on a non-positive or non-finite tolerance or a bad camera. */
+ * per pixel. With warped_rgb NULL only the coverage is computed (anchor_rgb is then not read
+ * and may be NULL). Fails on a non-positive or non-finite tolerance or a bad camera. */
 int gv_reproject_anchor(const gv_camera *target, const float *target_depth,
                         const gv_camera *anchor, const float *anchor_depth,
                         const float *anchor_rgb, double rel_tolerance, float *warped_rgb,

@@ -150,6 +150,11 @@ void gv_vae_compose_residual(const float *render, const float *restored, const f
  * VAE has statistics, raw otherwise; encoded chunked as Wan. */
 int gv_vace_context_build(gv_vae *v, const float *video, int frames, int height, int width, gv_anchors anchors,
                           float *out);
+/* The same from a per-pixel mask M [T, H, W] (values in [0, 1]): the coverage variant's
+ * (condition.h). With every frame's plane constant at the anchors variant's value it is
+ * gv_vace_context_build exactly. */
+int gv_vace_context_build_masked(gv_vae *v, const float *video, int frames, int height, int width,
+                                 const float *mask, float *out);
 
 /* ---- model run --part vae-encode | vae-decode (model/vae_run.c) ------------------------- */
 /* Load the VAE from the first of the weight files that holds it, then read "video"

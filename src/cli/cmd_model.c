@@ -56,8 +56,8 @@ static void print_config(const gv_model_config *c, const char *spec)
         for (int i = 0; i < c->lora.n_targets; i++) printf("%s %s", i ? "," : "", c->lora.targets[i]);
         printf(" on%s%s\n", c->lora.blocks ? " blocks" : "", c->lora.vace_blocks ? " vace_blocks" : "");
     }
-    printf("  variant: anchors %s, per-frame %s, skip %s\n", gv_anchors_name(c->variant.anchors), c->variant.per_frame ? "yes" : "no",
-           c->variant.skip ? "yes" : "no");
+    printf("  variant: anchors %s, per-frame %s, skip %s%s\n", gv_anchors_name(c->variant.anchors), c->variant.per_frame ? "yes" : "no",
+           c->variant.skip ? "yes" : "no", c->variant.coverage ? ", coverage mask" : "");
 }
 
 static void print_counts(const gv_weight_counts *n)

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "gaussvid/coverage.h"
 #include "gaussvid/dataset.h"
 #include "gaussvid/render.h"
 #include "gaussvid/splat_train.h"
@@ -63,6 +64,17 @@ static int render_3dgs(void *ctx, void *model, const gv_scene *scene, int frame,
     return 0;
 }
 
+/* The depth the coverage plane uses (gv_coverage_depth at the default minimum opacity). */
+static int depth_3dgs(void *ctx, void *model, const gv_scene *scene, int frame, float *depth)
+{
+    (void)ctx;
+    artifact_model *m = model;
+    gv_coverage_options opt;
+    gv_coverage_options_default(&opt);
+    memcpy(opt.bg, m->bg, sizeof opt.bg);
+    return gv_coverage_depth(&m->renderer, &m->gaussians, &scene->cameras[frame], &opt, depth);
+}
+
 static void free_3dgs(void *ctx, void *model)
 {
     (void)ctx;
@@ -74,4 +86,4 @@ static void free_3dgs(void *ctx, void *model)
     free(m);
 }
 
-const gv_artifact_simulator gv_artifact_3dgs = {"sparse 3DGS", train_3dgs, render_3dgs, free_3dgs, NULL};
+const gv_artifact_simulator gv_artifact_3dgs = {"sparse 3DGS", train_3dgs, render_3dgs, free_3dgs, NULL, depth_3dgs};

@@ -100,7 +100,7 @@ static int score_train_views(const data_run *run, void *model, gv_run_record *re
     return rc;
 }
 
-static int write_clip(const data_run *run, const int *frames, const frame_cache *cache,
+static int write_clip(const data_run *run, void *model, const int *frames, const frame_cache *cache,
                       const char *path)
 {
     const gv_camera *cams = run->scene->cameras;
@@ -124,6 +124,8 @@ static int write_clip(const data_run *run, const int *frames, const frame_cache 
         clip_cams[i] = &cams[f];
     }
     int rc = gv_clip_fill(&clip, frames, inputs, targets, clip_cams);
+    if (rc == 0 && run->simulator->depth) /* what the anchors see of each render */
+        rc = gv_clip_coverage_simulated(&clip, run->simulator, model, run->scene, frames);
     if (rc) gv_fail_context("%s", run->id.scene);
     if (rc == 0) rc = gv_clip_write(path, &clip);
     gv_clip_free(&clip);
@@ -131,7 +133,7 @@ static int write_clip(const data_run *run, const int *frames, const frame_cache 
 }
 
 /* Writes the clips and fills their manifest entries. */
-static int write_clips(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int n_clips,
+static int write_clips(const data_run *run, void *model, int (*frames)[GV_CLIP_FRAMES], int n_clips,
                        const frame_cache *cache, gv_manifest_clip *entries)
 {
     for (int k = 0; k < n_clips; k++) {
@@ -140,7 +142,7 @@ static int write_clips(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int n
         memset(e, 0, sizeof *e);
         if (gv_clip_file_name(e->file, sizeof e->file, run->id.scene, run->id.n, k) != 0 ||
             gv_path_join(path, sizeof path, run->out_dir, e->file) != 0 ||
-            write_clip(run, frames[k], cache, path) != 0)
+            write_clip(run, model, frames[k], cache, path) != 0)
             return -1;
         e->id = run->id;
         memcpy(e->frames, frames[k], sizeof e->frames);
@@ -216,7 +218,7 @@ int data_build_run(const data_run *run, gv_manifest *m, gv_run_record *rec)
         score_train_views(run, model, rec) != 0)
         goto done;
     rec->render_seconds = gv_now() - start - rec->train_seconds;
-    if (write_clips(run, frames, n_clips, &cache, entries) != 0) goto done;
+    if (write_clips(run, model, frames, n_clips, &cache, entries) != 0) goto done;
     rec->seconds = gv_now() - start;
     /* Runs built side by side share the manifest. */
 #pragma omp critical(gv_dataset_manifest)

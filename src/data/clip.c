@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "gaussvid/coverage.h"
 #include "gaussvid/dataset.h"
 #include "gaussvid/safetensors.h"
 
@@ -33,7 +34,8 @@ void gv_clip_free(gv_clip *clip)
 {
     free(clip->inputs);
     free(clip->targets);
-    clip->inputs = clip->targets = NULL;
+    free(clip->coverage);
+    clip->inputs = clip->targets = clip->coverage = NULL;
 }
 
 uint8_t *gv_clip_frame(uint8_t *frames, const gv_clip_info *info, int f)
@@ -94,6 +96,17 @@ static int has_mask(const gv_clip_info *info)
 {
     for (int i = 0; i < GV_CLIP_FRAMES; i++)
         if (info->no_target[i]) return 1;
+    return 0;
+}
+
+/* Every value of the coverage plane is made of the two anchors' bits. */
+static int check_coverage(const char *path, const gv_clip *clip)
+{
+    size_t n = (size_t)(GV_CLIP_FRAMES - 2) * clip->info.width * clip->info.height;
+    for (size_t i = 0; i < n; i++)
+        if (clip->coverage[i] > (GV_COVERED_FIRST | GV_COVERED_LAST))
+            return gv_fail("%s: coverage value %d at frame %d: expected 0..3 (bits of the anchors that see the "
+                           "pixel)", path, clip->coverage[i], 1 + (int)(i / ((size_t)clip->info.width * clip->info.height)));
     return 0;
 }
 
@@ -158,12 +171,15 @@ int gv_clip_write(const char *path, const gv_clip *clip)
     const int64_t frames_shape[4] = {GV_CLIP_FRAMES, info->height, info->width, 3};
     const int64_t intrinsics_shape[2] = {GV_CLIP_FRAMES, 4};
     const int64_t poses_shape[3] = {GV_CLIP_FRAMES, 3, 4};
+    const int64_t coverage_shape[3] = {GV_CLIP_FRAMES - 2, info->height, info->width};
+    if (clip->coverage && check_coverage(path, clip)) return -1;
     gv_st_builder b;
     gv_st_builder_init(&b);
     int rc = gv_st_add_raw(&b, "inputs", GV_ST_U8, frames_shape, 4, clip->inputs) ||
              gv_st_add_raw(&b, "targets", GV_ST_U8, frames_shape, 4, clip->targets) ||
              gv_st_add_f32(&b, "intrinsics", GV_ST_F32, intrinsics_shape, 2, &clip->intrinsics[0][0]) ||
              gv_st_add_f32(&b, "poses", GV_ST_F32, poses_shape, 3, &clip->poses[0][0]) ||
+             (clip->coverage && gv_st_add_raw(&b, "coverage", GV_ST_U8, coverage_shape, 3, clip->coverage)) ||
              add_metadata(&b, info);
     if (rc != 0) gv_fail_context("%s", path);
     else rc = gv_st_write(&b, path); /* its messages name the file */
@@ -274,16 +290,19 @@ static int read_metadata(const gv_st_file *f, gv_clip_info *info)
     return gv_clip_check_info(info, f->path);
 }
 
-static const char *tensor_names[4] = {"inputs", "targets", "intrinsics", "poses"};
+static const char *tensor_names[5] = {"inputs", "targets", "intrinsics", "poses", "coverage"};
 
-/* Exactly the four tensors, with their dtypes and shapes. */
-static int check_tensors(const gv_st_file *f, const gv_clip_info *info)
+/* Exactly the four tensors and the optional coverage plane, with their dtypes and shapes;
+ * info->has_coverage says whether the plane is there. */
+static int check_tensors(const gv_st_file *f, gv_clip_info *info)
 {
     for (int i = 0; i < f->n_tensors; i++) {
         int known = 0;
-        for (int k = 0; k < 4; k++) known |= !strcmp(f->tensors[i].name, tensor_names[k]);
+        for (int k = 0; k < 5; k++) known |= !strcmp(f->tensors[i].name, tensor_names[k]);
         if (!known) return gv_fail("%s: unexpected tensor '%s' in a clip", f->path, f->tensors[i].name);
+        if (!strcmp(f->tensors[i].name, "coverage")) info->has_coverage = 1;
     }
+    const int64_t coverage_shape[3] = {GV_CLIP_FRAMES - 2, info->height, info->width};
     const int64_t frames_shape[4] = {GV_CLIP_FRAMES, info->height, info->width, 3};
     const int64_t intrinsics_shape[2] = {GV_CLIP_FRAMES, 4};
     const int64_t poses_shape[3] = {GV_CLIP_FRAMES, 3, 4};
@@ -291,7 +310,8 @@ static int check_tensors(const gv_st_file *f, const gv_clip_info *info)
     return gv_st_get(f, "inputs", GV_ST_U8, frames_shape, 4, &t) ||
                    gv_st_get(f, "targets", GV_ST_U8, frames_shape, 4, &t) ||
                    gv_st_get(f, "intrinsics", GV_ST_F32, intrinsics_shape, 2, &t) ||
-                   gv_st_get(f, "poses", GV_ST_F32, poses_shape, 3, &t)
+                   gv_st_get(f, "poses", GV_ST_F32, poses_shape, 3, &t) ||
+                   (info->has_coverage && gv_st_get(f, "coverage", GV_ST_U8, coverage_shape, 3, &t))
                ? -1 : 0;
 }
 
@@ -344,6 +364,13 @@ int gv_clip_read(const char *path, gv_clip *clip)
                      gv_st_read_f32(&f, "intrinsics", &clip->intrinsics[0][0], intrinsics_shape, 2) ||
                      gv_st_read_f32(&f, "poses", &clip->poses[0][0], poses_shape, 3)
                  ? -1 : 0;
+    const int64_t coverage_shape[3] = {GV_CLIP_FRAMES - 2, info.height, info.width};
+    if (rc == 0 && info.has_coverage) {
+        clip->coverage = malloc((size_t)(GV_CLIP_FRAMES - 2) * info.width * info.height);
+        rc = !clip->coverage ? gv_fail("%s: out of memory for the coverage plane", path)
+             : gv_st_read_raw(&f, "coverage", GV_ST_U8, coverage_shape, 3, clip->coverage) ? -1
+                                                                                            : check_coverage(path, clip);
+    }
     gv_st_close(&f);
     if (rc == 0) rc = check_cameras(path, clip);
     size_t frame_bytes = (size_t)info.width * info.height * 3;

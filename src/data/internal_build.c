@@ -67,7 +67,8 @@ static int clip_present(const build_ctx *b, int i)
     return !strcmp(have.id.scene, want.id.scene) && have.id.n == want.id.n && have.offset == want.offset &&
            have.iters == want.iters && have.seed == want.seed && have.width == want.width &&
            have.height == want.height && !memcmp(have.frames, want.frames, sizeof want.frames) &&
-           !memcmp(have.no_target, want.no_target, sizeof want.no_target);
+           !memcmp(have.no_target, want.no_target, sizeof want.no_target) &&
+           (have.has_coverage || !b->o->coverage); /* from before the coverage plane: rebuilt when needed */
 }
 
 static int fits(const gv_image *img, const gv_clip_info *info)
@@ -77,7 +78,7 @@ static int fits(const gv_image *img, const gv_clip_info *info)
 
 /* Clip i from the model of a subset or of every view: clean anchors, the renders of frames 1-3
  * as inputs, the middle frame's ground truth as its target; the masked frames' targets repeat
- * their inputs. */
+ * their inputs; the coverage plane by that model's depth when the simulator renders depth. */
 static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int i)
 {
     const gv_internal_clip *c = &b->clips[i];
@@ -103,6 +104,9 @@ static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int
         }
         gv_image_free(&truth), gv_image_free(&render);
     }
+    int view_frames[GV_CLIP_FRAMES];
+    for (int f = 0; f < GV_CLIP_FRAMES; f++) view_frames[f] = c->frames[f] - first;
+    if (rc == 0 && b->sim->depth) rc = gv_clip_coverage_simulated(&clip, b->sim, model, view, view_frames);
     char file[GV_SCENE_NAME_MAX + 64], path[4096];
     if (rc == 0) rc = clip_path(b, i, file, sizeof file, path, sizeof path);
     if (rc == 0) rc = gv_clip_write(path, &clip);
@@ -212,7 +216,12 @@ static int already_built(const build_ctx *b)
     int complete = same && m.n_clips == b->count;
     for (int i = 0; complete && i < m.n_clips; i++) {
         char path[4096];
+        gv_clip_info info;
         complete = gv_path_join(path, sizeof path, b->o->out_dir, m.clips[i].file) == 0 && gv_file_exists(path);
+        if (complete && b->o->coverage) { /* the coverage mask needs every clip's plane */
+            complete = gv_clip_read_info(path, &info) == 0 && info.has_coverage;
+            gv_clear_error();
+        }
     }
     gv_manifest_free(&m);
     if (!same)
@@ -231,6 +240,9 @@ int gv_internal_build(const gv_scene *scene, const gv_internal_options *o, gv_in
     memset(&b, 0, sizeof b);
     b.scene = scene, b.o = o, b.sim = o->simulator ? o->simulator : &gv_artifact_3dgs;
     if (o->iters < 1) return gv_fail("internal pairs: iterations %d: must be at least 1", o->iters);
+    if (o->coverage && !b.sim->depth)
+        return gv_fail("internal pairs: the coverage mask needs the clips' coverage plane, and the artifact "
+                       "simulator %s renders no depth", b.sim->name);
     if (gv_scene_name_of(scene->dir, b.name, sizeof b.name)) return -1;
     if (gv_internal_check(scene->n_frames, o->interval)) return gv_fail_context("%s", scene->dir);
     b.clips = malloc((size_t)scene->n_frames * sizeof *b.clips);

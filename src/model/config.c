@@ -230,6 +230,9 @@ int gv_model_config_validate(const gv_model_config *c, const char *source)
                              gv_anchors_name(c->variant.anchors));
     if (c->variant.skip && c->variant.residual)
         return gv_config_bad(src, "variant.residual", "the skip and residual outputs exclude each other");
+    if (c->variant.coverage && (c->variant.per_frame || c->variant.anchors != GV_ANCHORS_BOTH))
+        return gv_config_bad(src, "variant.coverage", "the coverage mask is by both anchors: needs anchors \"both\" "
+                             "and not per-frame");
     return validate_lora(c, src);
 }
 
@@ -259,6 +262,8 @@ static int set_one(gv_model_config *c, const char *key, const char *value, const
         return bool_value(src, "variant.skip", value, &c->variant.skip);
     } else if (!strcmp(key, "residual")) {
         return bool_value(src, "variant.residual", value, &c->variant.residual);
+    } else if (!strcmp(key, "coverage")) {
+        return bool_value(src, "variant.coverage", value, &c->variant.coverage);
     } else if (!strcmp(key, "lora")) {
         char *end;
         long rank = strtol(value, &end, 10);
@@ -267,7 +272,7 @@ static int set_one(gv_model_config *c, const char *key, const char *value, const
         else if (rank > 0) c->lora.alpha = (double)rank;
         c->lora.rank = (int)rank;
     } else {
-        return gv_config_bad(src, key, "unknown variant key (camera, anchors, per_frame, skip, residual, lora)");
+        return gv_config_bad(src, key, "unknown variant key (camera, anchors, per_frame, skip, residual, coverage, lora)");
     }
     return 0;
 }
@@ -292,10 +297,12 @@ int gv_model_config_set_variant(gv_model_config *c, const char *spec, const char
             /* the two output forms exclude each other: naming one replaces the other */
             rc = set_one(c, item, "true", src);
             if (!rc) rc = set_one(c, item[0] == 's' ? "residual" : "skip", "false", src);
+        } else if (!strcmp(item, "coverage")) {
+            rc = set_one(c, "coverage", "true", src);
         } else if (gv_camera_variant_from_name(item) >= 0) {
             rc = set_one(c, "camera", item, src);
         } else {
-            rc = gv_fail("%s: \"%s\" is not a variant (camera name, per-frame, skip, residual, or key=value)", src, item);
+            rc = gv_fail("%s: \"%s\" is not a variant (camera name, per-frame, skip, residual, coverage, or key=value)", src, item);
         }
         if (rc) return -1;
     }
@@ -342,7 +349,7 @@ int gv_model_config_equal(const gv_model_config *a, const gv_model_config *b)
         if (strcmp(l->targets[i], r->targets[i])) return 0;
     return a->variant.camera == b->variant.camera && a->variant.anchors == b->variant.anchors &&
            a->variant.per_frame == b->variant.per_frame && a->variant.skip == b->variant.skip &&
-           a->variant.residual == b->variant.residual;
+           a->variant.residual == b->variant.residual && a->variant.coverage == b->variant.coverage;
 }
 
 void gv_model_camera_kernel(const gv_model_config *c, int kernel[3])

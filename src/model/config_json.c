@@ -225,11 +225,11 @@ static int parse_lora(reader *r, const cJSON *o, gv_lora_config *l)
 
 static int parse_variant(reader *r, const cJSON *o, gv_variant_config *v)
 {
-    static const char *const known[] = {"camera", "anchors", "per_frame", "skip", "residual", NULL};
+    static const char *const known[] = {"camera", "anchors", "per_frame", "skip", "residual", "coverage", NULL};
     const char *camera = NULL, *anchors = NULL;
     if (check_keys(r, o, known) || get_string(r, o, "camera", &camera) || get_string(r, o, "anchors", &anchors) ||
         get_bool(r, o, "per_frame", 0, &v->per_frame) || get_bool(r, o, "skip", 0, &v->skip) ||
-        get_bool(r, o, "residual", 0, &v->residual))
+        get_bool(r, o, "residual", 0, &v->residual) || get_bool(r, o, "coverage", 0, &v->coverage))
         return -1;
     if (camera) {
         int c = gv_camera_variant_from_name(camera);
@@ -388,6 +388,8 @@ static cJSON *rest_json(cJSON *root, const gv_model_config *c)
     cJSON_AddBoolToObject(variant, "per_frame", c->variant.per_frame);
     cJSON_AddBoolToObject(variant, "skip", c->variant.skip);
     cJSON_AddBoolToObject(variant, "residual", c->variant.residual);
+    /* only when on: the configs (and checkpoints) of every other variant stay as they were */
+    if (c->variant.coverage) cJSON_AddBoolToObject(variant, "coverage", 1);
     return root;
 }
 

@@ -183,8 +183,14 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
         load_scene(o, &x->base.cfg, &scene))
         return -1;
     double t = gv_now();
-    gv_internal_options po = {o->interval, o->iters, o->train.seed, o->simulator, pairs, 0};
-    gv_internal_options ho = {o->interval, o->iters, o->train.seed, o->simulator, harm, 1};
+    gv_model_config want = x->base.cfg; /* the adapted network's variant: with coverage, every clip needs its plane */
+    const char *variant = o->variant && strcmp(o->variant, "base") ? o->variant : NULL;
+    if (variant && gv_model_config_set_variant(&want, variant, "--variant")) {
+        gv_scene_free(&scene);
+        return -1;
+    }
+    gv_internal_options po = {o->interval, o->iters, o->train.seed, o->simulator, pairs, 0, want.variant.coverage};
+    gv_internal_options ho = {o->interval, o->iters, o->train.seed, o->simulator, harm, 1, want.variant.coverage};
     /* under mpirun rank 0 builds the clips and the others wait for them: only the fine-tuning
      * is shared among the ranks */
     int rc = gv_dist_is_root() ? gv_internal_build(&scene, &po, &r->pairs) : 0;

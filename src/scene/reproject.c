@@ -51,6 +51,7 @@ static int warp_pixel(const gv_camera *target, int i, int j, double z, const gv_
     if (!gv_reproject_point(target, i + 0.5, j + 0.5, z, anchor, &ua, &va, &za)) return 0;
     if (!(ua >= 0 && va >= 0 && ua < anchor->width && va < anchor->height)) return 0;
     if (!depth_agrees(anchor, anchor_depth, (int)ua, (int)va, za, tol)) return 0;
+    if (!anchor_rgb) return 1; /* coverage only */
     /* bilinear between pixel centres, over the neighbours that see the same surface */
     double fx = ua - 0.5, fy = va - 0.5, x0 = floor(fx), y0 = floor(fy);
     double ax = fx - x0, ay = fy - y0, sum = 0, acc[3] = {0, 0, 0};
@@ -81,10 +82,10 @@ int gv_reproject_anchor(const gv_camera *target, const float *target_depth,
     for (int j = 0; j < height; j++)
         for (int i = 0; i < width; i++) {
             size_t p = (size_t)j * width + i;
-            float *rgb = warped_rgb + 3 * p;
+            float *rgb = warped_rgb ? warped_rgb + 3 * p : NULL;
             covered[p] = (uint8_t)warp_pixel(target, i, j, target_depth[p], anchor, anchor_depth,
-                                             anchor_rgb, rel_tolerance, rgb);
-            if (!covered[p]) rgb[0] = rgb[1] = rgb[2] = 0;
+                                             rgb ? anchor_rgb : NULL, rel_tolerance, rgb);
+            if (rgb && !covered[p]) rgb[0] = rgb[1] = rgb[2] = 0;
         }
     return 0;
 }

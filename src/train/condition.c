@@ -116,8 +116,23 @@ static int check_sizes(const gv_vae *vae, const gv_model_config *cfg, const gv_c
     return 0;
 }
 
+int gv_condition_vace_mask(const gv_model_config *cfg, const gv_clip *clip, float *mask)
+{
+    const gv_clip_info *info = &clip->info;
+    const int64_t plane = (int64_t)info->height * info->width;
+    float frame_mask[GV_CLIP_FRAMES];
+    if (gv_vace_frame_mask(cfg->variant.anchors, GV_CLIP_FRAMES, frame_mask)) return -1;
+    for (int f = 0; f < GV_CLIP_FRAMES; f++) {
+        float *m = mask + f * plane;
+        int per_pixel = cfg->variant.coverage && clip->coverage && f > 0 && f < GV_CLIP_FRAMES - 1;
+        const uint8_t *seen = per_pixel ? clip->coverage + (f - 1) * plane : NULL;
+        for (int64_t p = 0; p < plane; p++) m[p] = seen ? (seen[p] ? 0.0f : 1.0f) : frame_mask[f];
+    }
+    return 0;
+}
+
 /* The video model: one 5-frame clip, batch 1. The VACE context is built from the input clip
- * after blanking (condition.h) by gv_vace_context_build (reference 3.3 steps 2-5). */
+ * after blanking (condition.h) by gv_vace_context_build_masked (reference 3.3 steps 2-5). */
 static int prepare_clip(gv_vae *vae, const gv_model_config *cfg, const gv_clip *clip, gv_clip_latents *l)
 {
     const gv_clip_info *info = &clip->info;
@@ -125,8 +140,9 @@ static int prepare_clip(gv_vae *vae, const gv_model_config *cfg, const gv_clip *
     const int64_t plane = (int64_t)info->height * info->width;
     float *gt = malloc((size_t)(3 * F * plane) * sizeof(float));
     float *in = malloc((size_t)(3 * F * plane) * sizeof(float));
+    float *mask = malloc((size_t)(F * plane) * sizeof(float));
     int rc = -1;
-    if (!gt || !in) {
+    if (!gt || !in || !mask) {
         gv_fail("out of memory for a %dx%d clip", info->width, info->height);
         goto done;
     }
@@ -137,11 +153,12 @@ static int prepare_clip(gv_vae *vae, const gv_model_config *cfg, const gv_clip *
             for (int c = 0; c < 3; c++) memset(in + ((int64_t)c * F + f) * plane, 0, (size_t)plane * sizeof(float));
     if (gv_vae_encode(vae, gt, F, info->height, info->width, 1, tf, l->z_clean) ||
         gv_vae_encode(vae, in, F, info->height, info->width, 1, tf, l->z_corrupt) ||
-        gv_vace_context_build(vae, in, F, info->height, info->width, cfg->variant.anchors, l->vace))
+        gv_condition_vace_mask(cfg, clip, mask) ||
+        gv_vace_context_build_masked(vae, in, F, info->height, info->width, mask, l->vace))
         goto done;
     rc = 0;
 done:
-    free(gt), free(in);
+    free(gt), free(in), free(mask);
     return rc;
 }
 

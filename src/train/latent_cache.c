@@ -1,5 +1,5 @@
 /* The latent cache of a dataset (DESIGN 6.2: clip latents are computed once): one safetensors
- * file in the dataset folder per (VAE weights, anchors variant, per-frame), holding for every
+ * file in the dataset folder per (VAE weights, anchors variant, per-frame, coverage), holding for every
  * clip its z_clean, z_corrupt and VACE context, and in "__metadata__" the checksum of each
  * clip file it was computed from. condition.h gives the rules. */
 #include <inttypes.h>
@@ -43,8 +43,8 @@ uint64_t gv_vae_checksum(const gv_vae *vae)
 int gv_latent_cache_path(char *out, size_t size, const char *dataset_dir, uint64_t vae_key, const gv_model_config *cfg)
 {
     char name[128];
-    snprintf(name, sizeof name, "latents_%016" PRIx64 "_%s%s.safetensors", vae_key, gv_anchors_name(cfg->variant.anchors),
-             cfg->variant.per_frame ? "_per-frame" : "");
+    snprintf(name, sizeof name, "latents_%016" PRIx64 "_%s%s%s.safetensors", vae_key, gv_anchors_name(cfg->variant.anchors),
+             cfg->variant.per_frame ? "_per-frame" : "", cfg->variant.coverage ? "_coverage" : "");
     return gv_path_join(out, size, dataset_dir, name);
 }
 
@@ -104,6 +104,8 @@ static void cache_open(const char *path, uint64_t key, const gv_model_config *cf
     else if (!anchors || strcmp(anchors, gv_anchors_name(cfg->variant.anchors)) || !per_frame ||
              strcmp(per_frame, cfg->variant.per_frame ? "true" : "false"))
         why = "computed for another anchors variant";
+    else if (!gv_st_metadata(&c->f, "coverage") != !cfg->variant.coverage) /* written only when on */
+        why = "computed for another VACE mask (coverage)";
     else if (!clips || !cJSON_IsObject(c->clips = cJSON_Parse(clips)))
         why = "\"clips\" metadata is not a JSON object";
     if (why) {
@@ -185,6 +187,7 @@ static int cache_write(const char *path, uint64_t key, const gv_model_config *cf
                      gv_st_add_metadata(&b, "vae_path", vae_path ? vae_path : "") ||
                      gv_st_add_metadata(&b, "anchors", gv_anchors_name(cfg->variant.anchors)) ||
                      gv_st_add_metadata(&b, "per_frame", cfg->variant.per_frame ? "true" : "false") ||
+                     (cfg->variant.coverage && gv_st_add_metadata(&b, "coverage", "true")) ||
                      gv_st_add_metadata(&b, "clips", clips_json) || gv_st_write(&b, path)
                  ? -1
                  : 0;
