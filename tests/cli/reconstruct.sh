@@ -94,6 +94,19 @@ check "refined.splat is that model" cmp -s refined_copy.splat R/n6/refined.splat
 if [ $HAVE_FFMPEG = 1 ]; then
     exists R/n6/flythrough.mp4
     exists R/report.html
+    # the summary at the end: the means of metrics.json, in words, and where the files are
+    has "n = 6, 20 held-out frames between the training views:"
+    has "against the sparse renders the restored frames are"
+    has "  report       R/report.html"
+    has "  viewer       R/n6/viewer.html"
+    has "  video        R/n6/flythrough.mp4"
+    check "the summary's table is metrics.json's means" python3 -c "
+import json, re, sys
+means = json.load(open('R/metrics.json'))['runs'][0]['means']
+text = open('all_out').read()
+for label, kind in (('sparse 3DGS', 'sparse'), ('restored', 'restored'), ('refined 3DGS', 'refined')):
+    m = re.search(r'^  %s +([0-9.]+) +([0-9.]+)\$' % label, text, re.M)
+    assert m and m.group(1) == '%.2f' % means[kind]['psnr'] and m.group(2) == '%.4f' % means[kind]['ssim'], (label, m)"
     check "the video is 20 frames of 192x48" test "$(ffprobe -v error -count_frames -select_streams v:0 \
         -show_entries stream=nb_read_frames,width,height -of csv=p=0 R/n6/flythrough.mp4)" = "192,48,20"
 fi
