@@ -65,6 +65,9 @@ exists R/n6/sparse.splat
 check "no renders yet" test ! -e R/n6/frames/render
 check "train recorded" test "$(stages R/metrics.json)" = "train"
 has "n=6 train:"
+# base.safetensors was pretrained on D, the clips of S: its numbers on S are not unseen-scene numbers.
+check "S was in the restorer's training set: one warning" \
+    test "$(grep -c "warning: scene 'S' was in the restorer's training set" "$T/err")" -eq 1
 cp R/n6/sparse.ply sparse_first.ply
 expect 0 "stop after render" -- "$G" reconstruct "${RC[@]}" --out R --stop-after render
 check "train skipped" grep -q "n=6 train: done before, skipped" "$T/err"
@@ -187,6 +190,7 @@ check "ground truth fed back beats the renders fed back by 1 dB" \
 # n = 1 on 6 frames: every view trains; 5 clips restore a path of 15 frames without ground truth.
 expect 0 "synth 6" -- "$G" scene synth --seed 4 --frames 6 --size 64x48 --samples 1 --out P --quiet
 expect 0 "smooth path" -- "$G" reconstruct "${RC[@]}" --scene P --interval 1 --out PR --stop-after $LAST
+check "P was not in the restorer's training set: no warning" test "$(grep -c "was in the restorer's training set" "$T/err")" -eq 0
 check "15 path frames restored" test "$(ls PR/n1/frames/restored | wc -l)" -eq 15
 exists PR/n1/frames/refined/frame_00019.png
 check "path metrics" python3 -c "
