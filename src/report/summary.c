@@ -25,7 +25,7 @@ static void where(FILE *out, const char *label, const char *dir, const char *rel
 {
     char path[8192];
     if (gv_path_join(path, sizeof path, dir, rel) != 0) return;
-    fprintf(out, "  %-12s %s%s\n", label, path, gv_file_exists(path) ? "" : "  (not written: the run stopped before)");
+    fprintf(out, "  %-12s %s%s\n", label, path, gv_file_exists(path) ? "" : "  (not written)");
 }
 
 static void run_summary(FILE *out, const char *dir, const report_run *run)

@@ -68,6 +68,8 @@ has "n=6 train:"
 # base.safetensors was pretrained on D, the clips of S: its numbers on S are not unseen-scene numbers.
 check "S was in the restorer's training set: one warning" \
     test "$(grep -c "warning: scene 'S' was in the restorer's training set" "$T/err")" -eq 1
+check "metrics.json records what the restorer was trained on" python3 -c "
+import json; assert json.load(open('R/metrics.json'))['restorer']['training_scenes'] == 'S'"
 cp R/n6/sparse.ply sparse_first.ply
 expect 0 "stop after render" -- "$G" reconstruct "${RC[@]}" --out R --stop-after render
 check "train skipped" grep -q "n=6 train: done before, skipped" "$T/err"
@@ -97,6 +99,7 @@ check "refined.splat is that model" cmp -s refined_copy.splat R/n6/refined.splat
 if [ $HAVE_FFMPEG = 1 ]; then
     exists R/n6/flythrough.mp4
     exists R/report.html
+    check "the report warns that S was trained on" grep -q "the scene S was in the restorer's training set" R/report.html
     # the summary at the end: the means of metrics.json, in words, and where the files are
     has "n = 6, 20 held-out frames between the training views:"
     has "against the sparse renders the restored frames are"
@@ -201,6 +204,8 @@ assert all(f['images']['ground_truth'] is None and f['sparse'] is None for f in 
 if [ $HAVE_FFMPEG = 1 ]; then
     check "the path video is render | restored" test "$(ffprobe -v error -select_streams v:0 \
         -show_entries stream=width,height -of csv=p=0 PR/n1/flythrough.mp4)" = "128,48"
+    check "P's report names the training scenes without a warning" \
+        test "$(grep -c "was in the restorer's training set" PR/report.html)" -eq 0 -a "$(grep -c "<th>trained on</th><td>S<" PR/report.html)" -eq 1
 fi
 
 # --adapt: the scene checkpoint made in nN/ and restore uses it.
