@@ -3,7 +3,6 @@
  * network), written atomically from metrics.json and the images it names. */
 #include "report_internal.h"
 
-#include "gaussvid/checkpoint.h"
 #include "gaussvid/core.h"
 #include "gaussvid/report.h"
 
@@ -20,6 +19,19 @@ static const char STYLE[] =
     ".cell img{display:block;width:256px;height:auto;image-rendering:pixelated}\n"
     ".caption{font-size:12px;color:#444;max-width:256px}figure{margin:12px 0}figcaption{font-weight:600}\n"
     ".bar{background:#3182bd;height:10px}\n";
+
+/* 1 when the comma-separated list (metrics.json's training_scenes) names scene. */
+static int list_names(const char *list, const char *scene)
+{
+    size_t len = strlen(scene);
+    for (const char *p = list; *p;) {
+        const char *comma = strchr(p, ',');
+        size_t item = comma ? (size_t)(comma - p) : strlen(p);
+        if (item == len && !strncmp(p, scene, len)) return 1;
+        p += item + (comma != NULL);
+    }
+    return 0;
+}
 
 /* The restorer's checkpoint, kind, gate and training scenes, in words; a warning when the
  * scene is one of them. */
@@ -42,7 +54,7 @@ static void restorer_table(report_text *t, const report_restorer *r, const char 
     text_append(t, "</td></tr>\n<tr><th>trained on</th><td>");
     text_escaped(t, r->training_scenes[0] ? r->training_scenes : "(not recorded by the checkpoint)");
     text_append(t, "</td></tr></table>\n");
-    if (r->training_scenes[0] && gv_scene_list_has(r->training_scenes, scene)) {
+    if (r->training_scenes[0] && list_names(r->training_scenes, scene)) {
         text_append(t, "<p class=\"warn\"><b>Warning:</b> the scene ");
         text_escaped(t, scene);
         text_append(t, " was in the restorer's training set: its numbers do not measure generalisation.</p>\n");
