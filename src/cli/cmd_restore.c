@@ -56,7 +56,10 @@ int gv_restore_cli_warn_seen(const char *ckpt, const char *clips_dir, const char
 {
     if (clip_file) {
         gv_clip_info info;
-        return gv_clip_read_info(clip_file, &info) || gv_warn_if_trained_on(ckpt, info.id.scene) ? -1 : 0;
+        if (gv_clip_read_info(clip_file, &info)) return -1;
+        if ((o->scene && strcmp(info.id.scene, o->scene)) || (o->interval && info.id.n != o->interval))
+            return 0; /* a clip outside a scene checkpoint's scope: refused next, not restored */
+        return gv_warn_if_trained_on(ckpt, info.id.scene);
     }
     gv_manifest m;
     int found = 0;
