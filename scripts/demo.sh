@@ -13,8 +13,12 @@
 # artifacts of 3000-iteration 3DGS (scripts/train_small.sh), so its inputs look like its
 # training data, and because 8000 (reconstruct's default) would cost about 2.7 times the
 # training time; one interval, n = 16, the middle of the three it was trained at (6, 16, 26),
-# so that the whole run stays well inside 30 minutes on two idle cores (measured in
-# README.md "Status"); a second interval would roughly double the training and restoration.
+# so that the run stays inside 30 minutes on two idle cores: measured on this 2-core machine
+# (loaded, so in CPU seconds) the training takes 193 CPU-s, the renders 7 and the restoration
+# about 23 CPU-s per clip (45 clips: about 1050); the refinement's 1000 iterations at the
+# training's rate would take about 100 more: about 23 CPU-minutes, so 12-20 minutes of wall
+# time on two idle cores (an estimate from those stages: no run has been timed to the end).
+# A second interval would add about as much again.
 #
 # Usage: scripts/demo.sh path/to/gaussvid OUTDIR          (make run: build/gaussvid demo)
 # Environment (defaults in brackets):
