@@ -15,8 +15,8 @@
 # training time; one interval, n = 16, the middle of the three it was trained at (6, 16, 26),
 # so that the run stays inside 30 minutes on two idle cores: measured on this 2-core machine
 # (loaded, so in CPU seconds) the training takes 193 CPU-s, the renders 7 and the restoration
-# about 23 CPU-s per clip (45 clips: about 1050); the refinement's 1000 iterations at the
-# training's rate would take about 100 more: about 23 CPU-minutes, so 12-20 minutes of wall
+# about 21 CPU-s per clip (725 for the first 34 of the 45 clips); the refinement's 1000
+# iterations at the training's rate would take about 100 more: about 21 CPU-minutes, so 11-20 minutes of wall
 # time on two idle cores (an estimate from those stages: no run has been timed to the end).
 # A second interval would add about as much again.
 #
