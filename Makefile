@@ -1,4 +1,5 @@
-# Thin wrapper over CMake: `make` builds, `make run` runs the demo, `make test` runs every test.
+# Thin wrapper over CMake: `make` builds, `make run` runs `gaussvid reconstruct` on the default
+# scene (scripts/demo.sh), `make test` runs every test.
 JOBS ?= $(shell nproc)
 BUILD := build
 ASAN_BUILD := build-asan
@@ -20,7 +21,8 @@ build: setup
 	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release >/dev/null
 	@cmake --build $(BUILD) -j $(JOBS)
 
-# The main job on the embedded default: see scripts/demo.sh.
+# The main job, `gaussvid reconstruct`, on the default procedural room, into $(DEMO)/: see
+# scripts/demo.sh (its GV_DEMO_* variables change the scene, n and iterations).
 run: build
 	@bash scripts/demo.sh $(BUILD)/gaussvid $(DEMO)
 

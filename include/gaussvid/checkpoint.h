@@ -15,6 +15,7 @@
 #define GV_CHECKPOINT_FORMAT "gaussvid-checkpoint"
 #define GV_CHECKPOINT_VERSION 1
 #define GV_CHECKPOINT_TEXT 1024
+#define GV_CHECKPOINT_SCENES 8192 /* the training scenes' names, comma-separated */
 
 /* Where a checkpoint's text context comes from (docs/WAN_WEIGHTS.md "The tokenizer and the
  * cached context"): metadata "text_context", "text_prompt", "text_encoder", "text_tokenizer";
@@ -44,6 +45,8 @@ typedef struct {
     char data[GV_CHECKPOINT_TEXT]; /* the training clips: split, count, hash of their names */
     char training[GV_CHECKPOINT_TEXT]; /* options that decide the steps taken */
     gv_text_source text;           /* the prompt's context (a fine-tuning keeps its base's) */
+    char scenes[GV_CHECKPOINT_SCENES]; /* the scenes of every clip the network and its base
+                                          trained on, sorted, comma-separated; "" unknown */
 } gv_train_state;
 
 /* ---- for inference ------------------------------------------------------------------------ */
@@ -88,6 +91,25 @@ void gv_config_describe(const gv_model_config *c, char *out, size_t size);
 int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out, size_t size);
 /* "fnv1a64:<16 hex digits>" of gv_vae_checksum (the latent cache's key) into out. */
 void gv_checkpoint_vae_checksum(const gv_vae *vae, char *out, size_t size);
+
+/* ---- the scenes a restorer was trained on (training_scenes.c) -----------------------------
+ * Metadata "scenes": the folder names of the scenes whose clips trained the network, its
+ * base's included, sorted and comma-separated; absent in checkpoints written before it was
+ * recorded (and in imported ones), which then say nothing. */
+/* Adds the scenes of the dataset's clips of split (NULL: all) to meta->scenes. */
+int gv_train_record_scenes(gv_train_state *meta, const char *clips_dir, const char *split);
+/* Adds the scenes of a comma-separated list (a base's record) to meta->scenes. */
+int gv_train_add_scenes(gv_train_state *meta, const char *list);
+/* 1 when the comma-separated list holds name. */
+int gv_scene_list_has(const char *list, const char *name);
+/* The training scenes a checkpoint records into out (a scene checkpoint: its base's); 1 when
+ * it records them, 0 when it does not, -1 when the file (or a scene checkpoint's base) cannot
+ * be read. */
+int gv_checkpoint_training_scenes(const char *ckpt, char *out, size_t size);
+/* One line on stderr when ckpt records scene among its training scenes: "warning: scene 'X'
+ * was in the restorer's training set (...): its numbers do not measure generalisation".
+ * -1 when the checkpoint cannot be read. */
+int gv_warn_if_trained_on(const char *ckpt, const char *scene);
 
 /* ---- the prompt's text context (text_context.c) --------------------------------------------
  * The DiT's cross-attention context of a prompt, [text_len, text_dim], computed by the umT5

@@ -8,6 +8,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "gaussvid/image.h"
 
@@ -28,6 +29,13 @@ int gv_report_write_html(const char *dir);
  * (scripts/setup.sh vendors it). */
 int gv_viewer_write(const char *splat_path, const char *scene_dir, int interval, const char *title,
                     const char *out_html);
+/* Prints to out what a reconstruction folder holds, read from DIR/metrics.json: the scene and
+ * restorer; per interval the mean PSNR / SSIM of the sparse, restored and refined frames, in
+ * words whether restoration and refinement changed the sparse renders' PSNR, the mean over
+ * every held-out view, and the paths of nN/viewer.html and nN/flythrough.mp4; then
+ * report.html and metrics.json (a file not written yet is said to be missing).
+ * `gaussvid reconstruct` ends with it. */
+int gv_report_summary(const char *dir, FILE *out);
 /* Whether this build carries the viewer's JavaScript. */
 int gv_viewer_available(void);
 

@@ -45,7 +45,9 @@ int cmd_eval(int argc, char **argv)
     if (gv_restore_cli_options(&c, &o)) return gv_restore_cli_usage("eval", gv_last_error());
 
     gv_restore_session s;
-    int rc = gv_restore_cli_start(&c, &o, &s) ? -1 : gv_restore_dataset(&s.r, clips, &o);
+    int rc = gv_restore_cli_start(&c, &o, &s) || gv_restore_cli_warn_seen(c.ckpt, clips, NULL, &o)
+                 ? -1
+                 : gv_restore_dataset(&s.r, clips, &o);
     gv_eval_table *table = &s.table;
     char text[256];
     gv_sampler_describe(&o.sampler, text, sizeof text);

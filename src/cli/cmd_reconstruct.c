@@ -8,6 +8,7 @@
 #include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/pipeline.h"
+#include "gaussvid/report.h"
 
 #define DEFAULT_CKPT "models/gaussvid-small.safetensors"
 
@@ -88,7 +89,6 @@ int cmd_reconstruct(int argc, char **argv)
     o.adapt_options.train.steps = adapt_steps;
     o.adapt_options.train.seed = (uint64_t)seed;
     if (gv_reconstruct(&o)) return gv_report_failure();
-    printf("%s/metrics.json: every number; per interval the models, frames and flythrough.mp4 in %s/nN/\n", o.out_dir,
-           o.out_dir);
-    return 0;
+    if (o.stop_after && strcmp(o.stop_after, "video")) return 0; /* stopped early: the summary is for a finished run */
+    return gv_report_summary(o.out_dir, stdout) ? gv_report_failure() : 0;
 }

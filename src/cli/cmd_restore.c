@@ -7,6 +7,7 @@
 #include "cli/cmd_restore.h"
 #include "cli/commands.h"
 #include "gaussvid/core.h"
+#include "gaussvid/dataset.h"
 #include "gaussvid/scene_adapt.h"
 
 void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
@@ -49,6 +50,33 @@ int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_rest
     gv_eval_init(&s->table, c->lpips ? &s->lpips : NULL);
     o->each = gv_eval_add_restored, o->each_ctx = &s->table;
     return 0;
+}
+
+int gv_restore_cli_warn_seen(const char *ckpt, const char *clips_dir, const char *clip_file, const gv_restore_options *o)
+{
+    if (clip_file) {
+        gv_clip_info info;
+        if (gv_clip_read_info(clip_file, &info)) return -1;
+        if ((o->scene && strcmp(info.id.scene, o->scene)) || (o->interval && info.id.n != o->interval))
+            return 0; /* a clip outside a scene checkpoint's scope: refused next, not restored */
+        return gv_warn_if_trained_on(ckpt, info.id.scene);
+    }
+    gv_manifest m;
+    int found = 0;
+    if (gv_manifest_read(clips_dir, &m, &found)) return -1;
+    char seen[GV_CHECKPOINT_SCENES] = "";
+    int rc = 0;
+    for (int i = 0; rc == 0 && i < m.n_clips; i++) { /* each scene of the clips restore will take, once */
+        const gv_run_id *id = &m.clips[i].id;
+        if ((o->split && strcmp(id->split, o->split)) || (o->scene && strcmp(id->scene, o->scene)) ||
+            (o->interval && id->n != o->interval) || gv_scene_list_has(seen, id->scene))
+            continue;
+        size_t len = strlen(seen);
+        if (len + strlen(id->scene) + 2 < sizeof seen) snprintf(seen + len, sizeof seen - len, ",%s", id->scene);
+        rc = gv_warn_if_trained_on(ckpt, id->scene);
+    }
+    gv_manifest_free(&m);
+    return rc;
 }
 
 void gv_restore_cli_end(gv_restore_session *s)
@@ -138,7 +166,7 @@ int cmd_restore(int argc, char **argv)
 
     o.out_dir = out, o.save_clips = save_clips;
     gv_restore_session s;
-    int rc = gv_restore_cli_start(&c, &o, &s) ? -1 : gv_mkdirs(out);
+    int rc = gv_restore_cli_start(&c, &o, &s) || gv_restore_cli_warn_seen(c.ckpt, clips, clip, &o) ? -1 : gv_mkdirs(out);
     if (rc == 0) {
         const char *paths[1] = {clip};
         rc = clip ? gv_restore_files(&s.r, paths, 1, &o) : gv_restore_dataset(&s.r, clips, &o);

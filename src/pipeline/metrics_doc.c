@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "gaussvid/checkpoint.h"
 #include "gaussvid/core.h"
 #include "gaussvid/json.h"
 #include "gaussvid/scene_adapt.h"
@@ -16,8 +17,9 @@ static int metrics_path(const gv_reconstruct_options *o, char *out, size_t size)
     return gv_path_join(out, size, o->out_dir, "metrics.json");
 }
 
-/* The restorer as the document names it: the checkpoint, "scene" or "cross-scene", and a scene
- * checkpoint's gate ("open" / "closed"; null otherwise). */
+/* The restorer as the document names it: the checkpoint, "scene" or "cross-scene", a scene
+ * checkpoint's gate ("open" / "closed"; null otherwise) and the scenes it was trained on (a
+ * scene checkpoint: its base's; null when the checkpoint does not record them). */
 cJSON *pipeline_restorer_json(const char *ckpt, int adapt)
 {
     cJSON *j = cJSON_CreateObject();
@@ -27,6 +29,9 @@ cJSON *pipeline_restorer_json(const char *ckpt, int adapt)
     cJSON_AddStringToObject(j, "kind", scene || adapt ? "scene" : "cross-scene");
     if (scene) cJSON_AddStringToObject(j, "gate", a.gate_open ? "open" : "closed");
     else cJSON_AddNullToObject(j, "gate");
+    char scenes[GV_CHECKPOINT_SCENES];
+    if (gv_checkpoint_training_scenes(ckpt, scenes, sizeof scenes) == 1) cJSON_AddStringToObject(j, "training_scenes", scenes);
+    else cJSON_AddNullToObject(j, "training_scenes"); /* unknown, or unreadable: the stages say why */
     return j;
 }
 

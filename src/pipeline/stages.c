@@ -151,6 +151,9 @@ int gv_reconstruct(const gv_reconstruct_options *o)
     if (gv_scene_load(o->scene_dir, &so, &scene)) return -1;
     cJSON *doc = NULL;
     int rc = check_options(o, &scene, last);
+    char scene_name[GV_SCENE_NAME_MAX];
+    if (rc == 0) /* the scene's numbers mean less when the restorer learned from it */
+        rc = gv_scene_name_of(o->scene_dir, scene_name, sizeof scene_name) || gv_warn_if_trained_on(o->ckpt, scene_name);
     if (rc == 0) rc = gv_mkdirs(o->out_dir);
     if (rc == 0) gv_atomic_sweep(o->out_dir, NULL);
     if (rc == 0) rc = pipeline_doc_open(o, &scene, &doc);

@@ -273,7 +273,8 @@ static int read_gaussians(reader *r, const cJSON *run, report_run *out)
     return rc;
 }
 
-/* "restorer": {"checkpoint", "kind", "gate"} or null / absent (nothing restored yet). */
+/* "restorer": {"checkpoint", "kind", "gate", "training_scenes"} or null / absent (nothing
+ * restored yet); "training_scenes" may be absent (files written before it was recorded). */
 static int read_restorer(reader *r, const cJSON *o, report_restorer *out)
 {
     int bad;
@@ -284,6 +285,9 @@ static int read_restorer(reader *r, const cJSON *o, report_restorer *out)
     int rc = read_string(r, restorer, "checkpoint", 1, out->checkpoint, sizeof out->checkpoint);
     if (rc == 0) rc = read_string(r, restorer, "kind", 1, out->kind, sizeof out->kind);
     if (rc == 0) rc = read_string(r, restorer, "gate", 1, out->gate, sizeof out->gate);
+    out->training_scenes[0] = '\0';
+    if (rc == 0 && member(r, restorer, "training_scenes", 0))
+        rc = read_string(r, restorer, "training_scenes", 1, out->training_scenes, sizeof out->training_scenes);
     leave(r, at);
     out->present = rc == 0;
     return rc;

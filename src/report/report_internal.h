@@ -40,6 +40,7 @@ typedef struct {
     char checkpoint[4096];
     char kind[64];
     char gate[64];              /* "" when null */
+    char training_scenes[8192]; /* comma-separated; "" when null or absent (not recorded) */
 } report_restorer;
 
 typedef struct {

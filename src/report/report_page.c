@@ -20,8 +20,22 @@ static const char STYLE[] =
     ".caption{font-size:12px;color:#444;max-width:256px}figure{margin:12px 0}figcaption{font-weight:600}\n"
     ".bar{background:#3182bd;height:10px}\n";
 
-/* The restorer's checkpoint, kind and gate, in words. */
-static void restorer_table(report_text *t, const report_restorer *r)
+/* 1 when the comma-separated list (metrics.json's training_scenes) names scene. */
+static int list_names(const char *list, const char *scene)
+{
+    size_t len = strlen(scene);
+    for (const char *p = list; *p;) {
+        const char *comma = strchr(p, ',');
+        size_t item = comma ? (size_t)(comma - p) : strlen(p);
+        if (item == len && !strncmp(p, scene, len)) return 1;
+        p += item + (comma != NULL);
+    }
+    return 0;
+}
+
+/* The restorer's checkpoint, kind, gate and training scenes, in words; a warning when the
+ * scene is one of them. */
+static void restorer_table(report_text *t, const report_restorer *r, const char *scene)
 {
     text_append(t, "<table class=\"restorer\"><tr><th>checkpoint</th><td>");
     text_escaped(t, r->checkpoint[0] ? r->checkpoint : "(none)");
@@ -37,7 +51,14 @@ static void restorer_table(report_text *t, const report_restorer *r)
                        : !strcmp(r->gate, "closed") ? ": the scene's held-back pairs said restoring hurts, so the renders pass through unchanged"
                        : "");
     }
+    text_append(t, "</td></tr>\n<tr><th>trained on</th><td>");
+    text_escaped(t, r->training_scenes[0] ? r->training_scenes : "(not recorded by the checkpoint)");
     text_append(t, "</td></tr></table>\n");
+    if (r->training_scenes[0] && list_names(r->training_scenes, scene)) {
+        text_append(t, "<p class=\"warn\"><b>Warning:</b> the scene ");
+        text_escaped(t, scene);
+        text_append(t, " was in the restorer's training set: its numbers do not measure generalisation.</p>\n");
+    }
 }
 
 static int same_restorer(const report_restorer *a, const report_restorer *b)
@@ -48,7 +69,7 @@ static int same_restorer(const report_restorer *a, const report_restorer *b)
 static void restorer_section(report_text *t, const report_metrics *m)
 {
     text_append(t, "<h2>Restorer</h2>\n");
-    if (m->restorer.present) restorer_table(t, &m->restorer);
+    if (m->restorer.present) restorer_table(t, &m->restorer, m->scene);
     else text_append(t, "<p class=\"note\">No restorer recorded for the whole folder; see each n.</p>\n");
 }
 
@@ -129,7 +150,7 @@ static int run_section(report_text *t, const char *dir, const report_metrics *m,
     }
     if (run->restorer.present && !(m->restorer.present && same_restorer(&run->restorer, &m->restorer))) {
         text_append(t, "<h3>Restorer of this run</h3>\n");
-        restorer_table(t, &run->restorer);
+        restorer_table(t, &run->restorer, m->scene);
     }
     if (run->smooth)
         text_append(t, "<p class=\"note\">The frames follow a smooth path between the training views: there is no ground truth, so no PSNR.</p>\n");

@@ -93,6 +93,7 @@ int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state 
     meta_text(f, "text_prompt", s->text.prompt, sizeof s->text.prompt);
     meta_text(f, "text_encoder", s->text.encoder, sizeof s->text.encoder);
     meta_text(f, "text_tokenizer", s->text.tokenizer, sizeof s->text.tokenizer);
+    meta_text(f, "scenes", s->scenes, sizeof s->scenes);
     return 0;
 }
 

@@ -63,6 +63,8 @@ int gv_ckpt_add_state(gv_st_builder *b, const gv_dit *m, const gv_model_config *
                             s->text.path, s->text.prompt, s->text.encoder, s->text.tokenizer};
     int rc = 0;
     for (int i = 0; rc == 0 && i < (int)(sizeof keys / sizeof keys[0]); i++) rc = gv_st_add_metadata(b, keys[i], values[i]);
+    /* only when known: a file without the key says nothing about its training scenes */
+    if (rc == 0 && s->scenes[0]) rc = gv_st_add_metadata(b, "scenes", s->scenes);
     free(json);
     return rc;
 }

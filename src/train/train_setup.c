@@ -62,7 +62,7 @@ int gv_train_load_data(const char *clips_dir, const char *vae_path, const char *
     snprintf(meta->vae, sizeof meta->vae, "%s", vae_path);
     snprintf(meta->clips, sizeof meta->clips, "%s", clips_dir);
     gv_train_data_text(set, "train", meta->data, sizeof meta->data);
-    return 0;
+    return gv_train_record_scenes(meta, clips_dir, "train");
 }
 
 int gv_train_load_val(const char *clips_dir, const char *vae_path, gv_model_config *cfg, gv_latent_set *set)
@@ -93,6 +93,7 @@ int gv_train_model(const gv_model_config *cfg, gv_objective objective, const cha
         gv_train_state s;
         if (gv_checkpoint_read_info(base, &c, &s)) return -1;
         meta->text = s.text;
+        if (gv_train_add_scenes(meta, s.scenes)) return -1; /* what the base learned from is learned from too */
     }
     if (gv_params_count(&m->params, 1) == 0)
         return gv_fail("%s: nothing to train in this variant (no LoRA adapters, no camera encoder)", cfg->name);

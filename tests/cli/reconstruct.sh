@@ -65,6 +65,11 @@ exists R/n6/sparse.splat
 check "no renders yet" test ! -e R/n6/frames/render
 check "train recorded" test "$(stages R/metrics.json)" = "train"
 has "n=6 train:"
+# base.safetensors was pretrained on D, the clips of S: its numbers on S are not unseen-scene numbers.
+check "S was in the restorer's training set: one warning" \
+    test "$(grep -c "warning: scene 'S' was in the restorer's training set" "$T/err")" -eq 1
+check "metrics.json records what the restorer was trained on" python3 -c "
+import json; assert json.load(open('R/metrics.json'))['restorer']['training_scenes'] == 'S'"
 cp R/n6/sparse.ply sparse_first.ply
 expect 0 "stop after render" -- "$G" reconstruct "${RC[@]}" --out R --stop-after render
 check "train skipped" grep -q "n=6 train: done before, skipped" "$T/err"
@@ -94,6 +99,20 @@ check "refined.splat is that model" cmp -s refined_copy.splat R/n6/refined.splat
 if [ $HAVE_FFMPEG = 1 ]; then
     exists R/n6/flythrough.mp4
     exists R/report.html
+    check "the report warns that S was trained on" grep -q "the scene S was in the restorer's training set" R/report.html
+    # the summary at the end: the means of metrics.json, in words, and where the files are
+    has "n = 6, 20 held-out frames between the training views:"
+    has "against the sparse renders the restored frames are"
+    has "  report       R/report.html"
+    has "  viewer       R/n6/viewer.html"
+    has "  video        R/n6/flythrough.mp4"
+    check "the summary's table is metrics.json's means" python3 -c "
+import json, re, sys
+means = json.load(open('R/metrics.json'))['runs'][0]['means']
+text = open('all_out').read()
+for label, kind in (('sparse 3DGS', 'sparse'), ('restored', 'restored'), ('refined 3DGS', 'refined')):
+    m = re.search(r'^  %s +([0-9.]+) +([0-9.]+)\$' % label, text, re.M)
+    assert m and m.group(1) == '%.2f' % means[kind]['psnr'] and m.group(2) == '%.4f' % means[kind]['ssim'], (label, m)"
     check "the video is 20 frames of 192x48" test "$(ffprobe -v error -count_frames -select_streams v:0 \
         -show_entries stream=nb_read_frames,width,height -of csv=p=0 R/n6/flythrough.mp4)" = "192,48,20"
 fi
@@ -174,6 +193,7 @@ check "ground truth fed back beats the renders fed back by 1 dB" \
 # n = 1 on 6 frames: every view trains; 5 clips restore a path of 15 frames without ground truth.
 expect 0 "synth 6" -- "$G" scene synth --seed 4 --frames 6 --size 64x48 --samples 1 --out P --quiet
 expect 0 "smooth path" -- "$G" reconstruct "${RC[@]}" --scene P --interval 1 --out PR --stop-after $LAST
+check "P was not in the restorer's training set: no warning" test "$(grep -c "was in the restorer's training set" "$T/err")" -eq 0
 check "15 path frames restored" test "$(ls PR/n1/frames/restored | wc -l)" -eq 15
 exists PR/n1/frames/refined/frame_00019.png
 check "path metrics" python3 -c "
@@ -184,6 +204,8 @@ assert all(f['images']['ground_truth'] is None and f['sparse'] is None for f in 
 if [ $HAVE_FFMPEG = 1 ]; then
     check "the path video is render | restored" test "$(ffprobe -v error -select_streams v:0 \
         -show_entries stream=width,height -of csv=p=0 PR/n1/flythrough.mp4)" = "128,48"
+    check "P's report names the training scenes without a warning" \
+        test "$(grep -c "was in the restorer's training set" PR/report.html)" -eq 0 -a "$(grep -c "<th>trained on</th><td>S<" PR/report.html)" -eq 1
 fi
 
 # --adapt: the scene checkpoint made in nN/ and restore uses it.

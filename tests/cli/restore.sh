@@ -79,6 +79,35 @@ check "latent cache written" ls "$D"/latents_*_both.safetensors
 # The network: a table and JSON with the means and per n, the same numbers twice.
 expect 0 "eval" -- "$G" eval --ckpt "$C" --clips "$D" --json "$T/eval.json" --quiet --threads 1
 has "restored PSNR"
+# The checkpoint records its training scenes (room-a, the train split; docs/TRAINING.md): the
+# eval split (room-b) is unseen and warns nothing, room-a's clips warn once, on stderr.
+check "an unseen scene: no warning" test "$(grep -c "training set" "$T/err")" -eq 0
+check "the checkpoint records room-a" grep -qE '"scenes":[[:space:]]*"room-a"' <("$G" st inspect --json "$C")
+expect 0 "eval on every split" -- "$G" eval --ckpt "$C" --clips "$D" --split all --quiet --threads 1
+check "room-a was trained on: one line" test "$(grep -c "training set" "$T/err")" -eq 1
+check "the warning's words" grep -qF "warning: scene 'room-a' was in the restorer's training set ($C: room-a): its numbers do not measure generalisation" "$T/err"
+# A checkpoint from before the record (its "scenes" key taken out of the header, the tensors as
+# they are) says nothing; FILE.scenes.json beside it gives the record when its "data" is the
+# checkpoint's, and fails in one line when it is another training set's.
+python3 - "$C" "$T/old.safetensors" <<'PY'
+import json, struct, sys
+b = open(sys.argv[1], "rb").read()
+n = struct.unpack("<Q", b[:8])[0]
+header = json.loads(b[8:8 + n])
+del header["__metadata__"]["scenes"]
+text = json.dumps(header).encode()
+text += b" " * (-(8 + len(text)) % 8)
+open(sys.argv[2], "wb").write(struct.pack("<Q", len(text)) + text + b[8 + n:])
+PY
+expect 0 "a checkpoint without the record" -- "$G" eval --ckpt "$T/old.safetensors" --clips "$D" --split train --quiet --threads 1
+check "no record: no warning" test "$(grep -c "training set" "$T/err")" -eq 0
+data=$("$G" st inspect "$T/old.safetensors" | sed -n 's/^  data: //p')
+printf '{"data": "%s", "scenes": ["room-a", "room-c"]}\n' "$data" >"$T/old.scenes.json"
+expect 0 "the record beside it" -- "$G" eval --ckpt "$T/old.safetensors" --clips "$D" --split train --quiet --threads 1
+check "the record beside it warns" grep -qF "warning: scene 'room-a' was in the restorer's training set ($T/old.safetensors: room-a,room-c)" "$T/err"
+printf '{"data": "9 clips (split train), names fnv1a64 0000000000000000", "scenes": ["room-a"]}\n' >"$T/old.scenes.json"
+expect 1 "a record of another training set" -- "$G" eval --ckpt "$T/old.safetensors" --clips "$D" --split train --quiet --threads 1
+one_line "old.scenes.json: made for the training set"
 check "eval json" grep -q '"per_n"' "$T/eval.json"
 check "eval json clips" test "$(json_number "$T/eval.json" restored clips)" = 3
 check "eval json sampler" grep -q '"sampler":.*"onestep t0=0.05 steps=1 shift=1 samples=8' "$T/eval.json"
@@ -98,6 +127,10 @@ exists "$T/r/room-b_n08_000.safetensors"
 expect 0 "restore one clip" -- "$G" restore --ckpt "$C" --clip "$D/clips/room-b_n08_000.safetensors" --out "$T/one" \
     --save-clips --quiet --threads 1
 has "1 clips restored"
+check "a clip of an unseen scene: no warning" test "$(grep -c "training set" "$T/err")" -eq 0
+expect 0 "restore a clip of a training scene" -- "$G" restore --ckpt "$C" --clip "$D/clips/room-a_n06_000.safetensors" \
+    --out "$T/seen" --quiet --threads 1
+check "a clip of a training scene warns" grep -q "warning: scene 'room-a' was in the restorer's training set" "$T/err"
 check "same restored clip" cmp -s "$T/r/room-b_n08_000.safetensors" "$T/one/room-b_n08_000.safetensors"
 check "same frame" cmp -s "$T/r/room-b_n08_000/f2.png" "$T/one/room-b_n08_000/f2.png"
 expect 0 "dataset show on a restored clip" -- "$G" dataset show "$T/one/room-b_n08_000.safetensors" --out "$T/sheet.png"

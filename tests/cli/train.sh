@@ -79,6 +79,15 @@ check "holds LoRA" grep -q "lora_B.weight" <("$G" st inspect ft.safetensors)
 expect 0 "train, interrupted" -- "$G" train "${FT[@]}" --out ft2.safetensors --stop-after 1
 expect 0 "train, resumed" -- "$G" train "${FT[@]}" --out ft2.safetensors --resume
 check "resumed fine-tuning is bit-exact" same_data ft.safetensors ft2.safetensors
+# The training scenes recorded (docs/TRAINING.md): the train split's (A; B is the eval split),
+# and a fine-tuning on other clips (B's alone) adds them to its base's.
+check "base records its training scene" test "$(meta base.safetensors scenes | tr -d " \t")" = '"scenes":"A"'
+check "fine-tuning records it too" test "$(meta ft.safetensors scenes | tr -d " \t")" = '"scenes":"A"'
+expect 0 "dataset of B" -- "$G" dataset build --scenes B --intervals 6 --iters 20 --clips-per-run 1 --seed 5 --out DB \
+    --quiet --threads 1
+expect 0 "train on B from a base of A" -- "$G" train --clips DB --base base.safetensors --steps 1 --batch 1 --quiet \
+    --out ftb.safetensors
+check "the base's scenes and its own" grep -qx "  scenes: A,B" <("$G" st inspect ftb.safetensors)
 check "resumed fine-tuning records the same loss average" test "$(meta ft.safetensors loss)" = "$(meta ft2.safetensors loss)"
 expect 1 "resume with other options" -- "$G" train "${FT[@]}" --out ft2.safetensors --resume --lr 3e-4
 one_line "written with other training options"

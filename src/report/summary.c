@@ -1,0 +1,74 @@
+/* gv_report_summary: what `gaussvid reconstruct` prints when it is done, read back from
+ * metrics.json so that it shows exactly what the report shows: per interval the mean PSNR /
+ * SSIM of the sparse, restored and refined frames, in words whether the restorer and the
+ * refinement helped, and where the report, the viewers and the videos are. */
+#include "report_internal.h"
+
+#include "gaussvid/core.h"
+#include "gaussvid/report.h"
+
+#include <stdio.h>
+
+/* "better by 0.12 dB", "worse by 0.04 dB" or "unchanged" (below 0.005 dB, the table's rounding). */
+static void change_words(double change, char *out, size_t size)
+{
+    if (change >= 0.005)
+        snprintf(out, size, "better by %.2f dB", change);
+    else if (change <= -0.005)
+        snprintf(out, size, "worse by %.2f dB", -change);
+    else
+        snprintf(out, size, "unchanged (%+.3f dB)", change);
+}
+
+/* Prints path when the file exists, else says it is missing (a stopped run). */
+static void where(FILE *out, const char *label, const char *dir, const char *rel)
+{
+    char path[8192];
+    if (gv_path_join(path, sizeof path, dir, rel) != 0) return;
+    fprintf(out, "  %-12s %s%s\n", label, path, gv_file_exists(path) ? "" : "  (not written)");
+}
+
+static void run_summary(FILE *out, const char *dir, const report_run *run)
+{
+    static const char *const labels[N_MODELS] = {"sparse 3DGS", "restored", "refined 3DGS"};
+    if (run->smooth)
+        fprintf(out, "n = %d: a smooth path between the views, no ground truth to score\n", run->interval);
+    else if (!run->has_means)
+        fprintf(out, "n = %d: not evaluated yet\n", run->interval);
+    else {
+        fprintf(out, "n = %d, %d held-out frames between the training views:\n", run->interval,
+                run->means[MODEL_SPARSE].frames);
+        fprintf(out, "  %-14s %9s %8s\n", "", "PSNR (dB)", "SSIM");
+        for (int k = 0; k < N_MODELS; k++)
+            if (run->means[k].present)
+                fprintf(out, "  %-14s %9.2f %8.4f\n", labels[k], run->means[k].psnr, run->means[k].ssim);
+        char restored[64], refined[64];
+        change_words(run->means[MODEL_RESTORED].psnr - run->means[MODEL_SPARSE].psnr, restored, sizeof restored);
+        change_words(run->means[MODEL_REFINED].psnr - run->means[MODEL_SPARSE].psnr, refined, sizeof refined);
+        fprintf(out, "  against the sparse renders the restored frames are %s, the refined model's %s\n", restored,
+                refined);
+        if (run->has_all_held_out && run->all_held_out[MODEL_SPARSE].frames > run->means[MODEL_SPARSE].frames)
+            fprintf(out, "  all %d held-out views (also those after the last training view): sparse %.2f, refined %.2f dB\n",
+                    run->all_held_out[MODEL_SPARSE].frames, run->all_held_out[MODEL_SPARSE].psnr,
+                    run->all_held_out[MODEL_REFINED].psnr);
+    }
+    char rel[64];
+    snprintf(rel, sizeof rel, "n%d/viewer.html", run->interval);
+    where(out, "viewer", dir, rel);
+    snprintf(rel, sizeof rel, "n%d/flythrough.mp4", run->interval);
+    where(out, "video", dir, rel);
+}
+
+int gv_report_summary(const char *dir, FILE *out)
+{
+    char path[8192];
+    if (gv_path_join(path, sizeof path, dir, "metrics.json") != 0) return -1;
+    report_metrics m;
+    if (report_metrics_read(path, &m) != 0) return -1;
+    fprintf(out, "\n%s, restored by %s:\n", m.scene, m.restorer.present ? m.restorer.checkpoint : "(no restorer recorded)");
+    for (int i = 0; i < m.n_runs; i++) run_summary(out, dir, &m.runs[i]);
+    where(out, "report", dir, "report.html");
+    where(out, "numbers", dir, "metrics.json");
+    report_metrics_free(&m);
+    return 0;
+}
