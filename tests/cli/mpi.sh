@@ -17,7 +17,7 @@ if "$G" --version | grep -q "MPI: not compiled in" || ! command -v mpirun >/dev/
 fi
 # CI runs as root; two ranks on one machine over loopback TCP; no Open MPI banners (-q).
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-M=(mpirun -q -np 2 --oversubscribe --mca btl self,tcp --mca btl_tcp_if_include lo --mca oob_tcp_if_include lo)
+M=(mpirun -q -np 2 --oversubscribe --mca btl self,vader --mca btl_vader_single_copy_mechanism none --mca oob_tcp_if_include lo)
 
 data_bytes() {
     local n
