@@ -93,6 +93,12 @@ static void run_free(adapt_run *x)
     gv_latent_set_free(&x->harm);
 }
 
+/* The variant the adapted network is built for; NULL for "base": the base's own. */
+static const char *adapted_variant(const gv_adapt_options *o)
+{
+    return o->variant && strcmp(o->variant, "base") ? o->variant : NULL;
+}
+
 /* The base's network (every tensor, its adapters to be trained) and VAE; the internal pairs'
  * latents split into training and held-back clips, and the do-no-harm clips of the held-back
  * views (both folders list clip i for view i + 1, so one hold-back picks the same views). */
@@ -100,7 +106,7 @@ static int load_model_and_data(const gv_adapt_options *o, const char *pairs, con
 {
     gv_latent_set all, all_harm;
     if (gv_restorer_load(o->base, &x->base) || gv_dit_set_train_mode(&x->base.net, GV_DIT_FINETUNE)) return -1;
-    const char *variant = o->variant && strcmp(o->variant, "base") ? o->variant : NULL; /* "base": its own */
+    const char *variant = adapted_variant(o);
     if (variant || o->fresh_camera) {
         /* another output form or a fresh camera encoder: the network is built for the variant
          * and takes the base's weights as `train` takes a base (a residual head from zero) */
@@ -184,7 +190,7 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
         return -1;
     double t = gv_now();
     gv_model_config want = x->base.cfg; /* the adapted network's variant: with coverage, every clip needs its plane */
-    const char *variant = o->variant && strcmp(o->variant, "base") ? o->variant : NULL;
+    const char *variant = adapted_variant(o);
     if (variant && gv_model_config_set_variant(&want, variant, "--variant")) {
         gv_scene_free(&scene);
         return -1;
