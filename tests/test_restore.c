@@ -246,6 +246,22 @@ static void test_compose(void)
             }
         }
         CHECK(bad_dec == 0 && bad_res == 0 && changed > 100);
+        /* unseen: residual's bytes where no anchor sees the pixel, the render's where one does */
+        uint8_t *uns = malloc((size_t)(5 * fb));
+        CHECK_FAILS_WITH(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_UNSEEN, uns), "coverage plane");
+        s.clip.coverage = malloc((size_t)(3 * plane));
+        for (int64_t i = 0; i < 3 * plane; i++) s.clip.coverage[i] = (uint8_t)((i * 7 + i / 5) % 4); /* 0..3: a quarter unseen */
+        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_UNSEEN, uns) == 0);
+        int bad_uns = 0, unseen_changed = 0;
+        for (int f = 0; f < 5; f++)
+            for (int64_t p = 0; p < plane; p++) {
+                int kept = f == 0 || f == 4 || s.clip.coverage[(f - 1) * plane + p];
+                const uint8_t *want = kept ? s.clip.inputs + f * fb + p * 3 : res + f * fb + p * 3;
+                bad_uns += memcmp(uns + f * fb + p * 3, want, 3) != 0;
+                unseen_changed += !kept && memcmp(want, s.clip.inputs + f * fb + p * 3, 3) != 0;
+            }
+        CHECK(bad_uns == 0 && unseen_changed > 20);
+        free(uns);
         free(d1), free(d2), free(z), free(dec), free(res), free(ident);
         setup_free(&s);
     }
@@ -573,7 +589,8 @@ static void test_bad_specs(void)
     CHECK_FAILS_WITH(gv_sampler_configure("onestep", 0, 3, 0, 0, 0, 0, &s), "it takes one");
     gv_compose c;
     CHECK(gv_compose_from_name("residual", &c) == 0 && c == GV_COMPOSE_RESIDUAL && !strcmp(gv_compose_name(c), "residual"));
-    CHECK_FAILS_WITH(gv_compose_from_name("blend", &c), "expected decoded or residual");
+    CHECK(gv_compose_from_name("unseen", &c) == 0 && c == GV_COMPOSE_UNSEEN && !strcmp(gv_compose_name(c), "unseen"));
+    CHECK_FAILS_WITH(gv_compose_from_name("blend", &c), "expected decoded, residual or unseen");
     char text[128];
     CHECK(gv_sampler_from_name("released", &s) == 0);
     gv_sampler_describe(&s, text, sizeof text);

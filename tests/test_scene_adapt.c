@@ -107,6 +107,7 @@ static void test_scene_checkpoint(const char *tmp)
     a.gate_psnr_base = 30.5, a.gate_psnr_restored = 30.25, a.seconds_train = 12.5;
     a.harm_max_loss_db = 0.05, a.harm_frames = 3, a.harm_psnr_base = 38.5, a.harm_psnr_restored = 38.375;
     snprintf(a.gate_sampler, sizeof a.gate_sampler, "onestep t0=0.05");
+    snprintf(a.gate_compose, sizeof a.gate_compose, "unseen");
     CHECK(gv_file_checksum(base_path, a.base_checksum, sizeof a.base_checksum) == 0);
     snprintf(st.base, sizeof st.base, "%s", base_path);
     CHECK(gv_scene_checkpoint_save(scene_path, &tuned, &tuned.cfg, &st, &a) == 0);
@@ -126,6 +127,7 @@ static void test_scene_checkpoint(const char *tmp)
     CHECK(gv_scene_checkpoint_read(scene_path, &back) == 0);
     CHECK(!strcmp(back.scene, "room") && back.interval == 16 && back.best_step == 150 && !back.gate_open);
     CHECK(back.gate_psnr_restored == 30.25 && back.val_gain_db == 0.125 && !strcmp(back.gate_sampler, "onestep t0=0.05"));
+    CHECK(!strcmp(back.gate_compose, "unseen"));
     CHECK_NEAR(gv_scene_gate_change(&back), -0.25, 1e-12);
     CHECK(back.harm_frames == 3 && back.harm_max_loss_db == 0.05 && back.harm_psnr_base == 38.5);
     CHECK_NEAR(gv_scene_harm_change(&back), -0.125, 1e-12);

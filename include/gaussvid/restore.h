@@ -20,7 +20,9 @@
  * Composition of the restored clip (8-bit frames): the anchors are the input's; the three
  * intermediates are either the decoded restored latent (decoded) or render + D(z) - D(z-hat)
  * (residual: the VAE's own reconstruction error cancels where the restorer changes nothing;
- * with z = z-hat it gives the render exactly). */
+ * with z = z-hat it gives the render exactly), or residual only on the pixels no anchor sees
+ * and the render elsewhere (unseen: needs the clip's coverage plane; the restorer completes
+ * what the anchors cannot show and leaves alone what they confirm). */
 #ifndef GAUSSVID_RESTORE_H
 #define GAUSSVID_RESTORE_H
 
@@ -95,8 +97,8 @@ int gv_restore_net_velocity(void *ctx, const float *x, double sigma, float *v);
 int gv_restore_latent(gv_dit *m, const gv_clip_latents *l, const gv_sampler *s, uint64_t clip_seed, float *z_out);
 
 /* ---- composition (restore_compose.c) ----------------------------------------------------- */
-typedef enum { GV_COMPOSE_DECODED, GV_COMPOSE_RESIDUAL } gv_compose;
-/* "decoded" or "residual", and back. */
+typedef enum { GV_COMPOSE_DECODED, GV_COMPOSE_RESIDUAL, GV_COMPOSE_UNSEEN } gv_compose;
+/* "decoded", "residual" or "unseen", and back. */
 const char *gv_compose_name(gv_compose c);
 int gv_compose_from_name(const char *name, gv_compose *out);
 /* The restored clip: out [5, H, W, 3] 8-bit (the clip's layout). z_restored holds

@@ -36,6 +36,8 @@ typedef struct {
     int gate_frames;                /* held-back frames with ground truth that were restored */
     double gate_psnr_base, gate_psnr_restored, gate_ssim_base, gate_ssim_restored;
     char gate_sampler[256];         /* the sampler and composition the gate restored with */
+    char gate_compose[16];          /* that composition's name (restore.h); "" in checkpoints from
+                                       before it was recorded, which all used "residual" */
     /* The do-no-harm test (internal_pairs.h): the same held-back views' clips rendered by the
      * model of every training view, whose nearly clean middle frame a restorer that overshoots
      * makes worse. harm_frames 0: not measured (a checkpoint from before it existed). */

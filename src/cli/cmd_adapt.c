@@ -39,7 +39,8 @@ int cmd_adapt(int argc, char **argv)
 {
     gv_adapt_options o;
     gv_adapt_defaults(&o);
-    const char *schedule = gv_lr_kind_name(o.train.lr_schedule), *crop = NULL, *sampler = GV_SAMPLER_DEFAULT;
+    const char *schedule = gv_lr_kind_name(o.train.lr_schedule), *crop = NULL, *sampler = GV_SAMPLER_DEFAULT,
+               *compose = GV_COMPOSE_DEFAULT;
     int steps = (int)o.train.steps, val_every = (int)o.train.val_every, stop_after = 0, seed = 0;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (COLMAP sparse/0 or transforms.json)", 1},
@@ -70,6 +71,8 @@ int cmd_adapt(int argc, char **argv)
         {"harm-max-loss", GV_FLAG_DOUBLE, &o.harm_max_loss_db, "DB",
          "... and the do-no-harm clips (nearly clean renders) lose less than DB (default 0.05)", 0},
         {"sampler", GV_FLAG_STRING, &sampler, "NAME", "the sampler the gate restores with (default " GV_SAMPLER_DEFAULT ", restore's)", 0},
+        {"compose", GV_FLAG_STRING, &compose, "MODE",
+         "the composition the gate restores with: residual, decoded or unseen (default " GV_COMPOSE_DEFAULT ", restore's)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "seed of the internal 3DGS runs and the fine-tuning (default 0)", 0},
         {"stop-after", GV_FLAG_INT, &stop_after, "N", "stop the fine-tuning after step N (run again to continue)", 0},
     };
@@ -97,7 +100,7 @@ int cmd_adapt(int argc, char **argv)
         return 2;
     }
     if (gv_lr_kind_from_name(schedule, &o.train.lr_schedule) ||
-        gv_sampler_configure(sampler, 0, 0, 0, 0, 0, 0, &o.sampler)) {
+        gv_sampler_configure(sampler, 0, 0, 0, 0, 0, 0, &o.sampler) || gv_compose_from_name(compose, &o.compose)) {
         fprintf(stderr, "gaussvid adapt: %s\n", gv_last_error());
         return 2;
     }

@@ -37,7 +37,7 @@ int cmd_eval(int argc, char **argv)
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
     if (!c.split) c.split = "eval";
     if (identity) {
-        if (strcmp(c.sampler, GV_SAMPLER_DEFAULT) || strcmp(c.compose, GV_COMPOSE_DEFAULT))
+        if (strcmp(c.sampler, GV_SAMPLER_DEFAULT) || (c.compose && strcmp(c.compose, GV_COMPOSE_DEFAULT)))
             return gv_restore_cli_usage("eval", "--identity sets the sampler and the composition");
         c.sampler = "identity", c.compose = "residual";
     }

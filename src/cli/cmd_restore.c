@@ -26,7 +26,8 @@ void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
          "fraction of the correction applied, in (0, 1]: z = z-hat + B (estimate - z-hat) (onestep, iterate; default 1)", 0},
         {"seed", GV_FLAG_INT, &c->seed, "S", "noise seed (default 0); each clip's stream also depends on its file name", 0},
         {"compose", GV_FLAG_STRING, &c->compose, "MODE",
-         "residual (render + D(z) - D(z-hat)) or decoded (D(z)); default " GV_COMPOSE_DEFAULT, 0},
+         "residual (render + D(z) - D(z-hat)), decoded (D(z)), or unseen (residual where no anchor sees the pixel, "
+         "the render elsewhere; clips with a coverage plane); default " GV_COMPOSE_DEFAULT, 0},
         {"no-cache", GV_FLAG_BOOL, &c->no_cache, NULL, "encode every clip instead of using the dataset's latent cache", 0},
         {"lpips", GV_FLAG_STRING, &c->lpips, "FILE", "AlexNet-LPIPS weights (safetensors, docs/LPIPS.md): add LPIPS", 0},
         {"scene", GV_FLAG_STRING, &c->scene, "NAME",
@@ -34,7 +35,7 @@ void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
         {"interval", GV_FLAG_INT, &c->interval, "N", "only clips of interval n; a scene checkpoint sets its own", 0},
     };
     memcpy(f, flags, sizeof flags);
-    c->sampler = GV_SAMPLER_DEFAULT, c->compose = GV_COMPOSE_DEFAULT;
+    c->sampler = GV_SAMPLER_DEFAULT, c->compose = NULL; /* NULL: the default, or a scene checkpoint's */
 }
 
 int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_restore_session *s)
@@ -44,7 +45,7 @@ int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_rest
     gv_info("%s: %s checkpoint of %s, step %ld of %ld", c->ckpt, s->r.state.kind, s->r.cfg.name, s->r.state.step,
             s->r.state.steps);
     char gate_line[1024];
-    if (gv_restore_cli_gate(c->ckpt, o, gate_line, sizeof gate_line, s)) return -1;
+    if (gv_restore_cli_gate(c->ckpt, c->compose != NULL, o, gate_line, sizeof gate_line, s)) return -1;
     fputs(gate_line, stdout);
     if (c->lpips && gv_lpips_load(&s->lpips, c->lpips)) return -1;
     gv_eval_init(&s->table, c->lpips ? &s->lpips : NULL);
@@ -99,7 +100,7 @@ int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o)
         return gv_fail("--t0, --steps, --shift, --samples and --blend must be positive");
     if (gv_sampler_configure(c->sampler, c->t0, c->steps, c->shift, c->samples, c->blend, (uint64_t)c->seed,
                              &o->sampler) ||
-        gv_compose_from_name(c->compose, &o->compose))
+        gv_compose_from_name(c->compose ? c->compose : GV_COMPOSE_DEFAULT, &o->compose))
         return -1;
     if (c->split && strcmp(c->split, "all") && strcmp(c->split, "train") && strcmp(c->split, "eval"))
         return gv_fail("--split %s: expected train, eval or all", c->split);
@@ -110,7 +111,8 @@ int gv_restore_cli_options(const gv_restore_cli *c, gv_restore_options *o)
     return 0;
 }
 
-int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, size_t size, gv_restore_session *s)
+int gv_restore_cli_gate(const char *ckpt, int compose_given, gv_restore_options *o, char *line, size_t size,
+                        gv_restore_session *s)
 {
     line[0] = '\0';
     s->gate = NULL;
@@ -122,15 +124,24 @@ int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, siz
     if ((o->scene && strcmp(o->scene, a.scene)) || (o->interval && o->interval != a.interval))
         return gv_fail("%s: adapted to %s at n = %d, not to %s at n = %d", ckpt, a.scene, a.interval,
                        o->scene ? o->scene : a.scene, o->interval ? o->interval : a.interval);
+    /* the gate's evidence is for the composition it measured: restore composes the same way */
+    gv_compose gate_compose;
+    if (gv_compose_from_name(a.gate_compose[0] ? a.gate_compose : "residual", &gate_compose))
+        return gv_fail_context("%s: metadata gate_compose", ckpt);
+    if (compose_given && gate_compose != o->compose)
+        return gv_fail("%s: its gate measured the %s composition, so restore composes that way: drop --compose %s, or "
+                       "adapt again with --compose %s",
+                       ckpt, gv_compose_name(gate_compose), gv_compose_name(o->compose), gv_compose_name(o->compose));
+    o->compose = gate_compose;
     snprintf(s->scene, sizeof s->scene, "%s", a.scene);
     o->scene = s->scene, o->interval = a.interval;
     o->keep_renders = !a.gate_open;
     s->gate = a.gate_open ? "open" : "closed";
     snprintf(line, size,
-             "%s: adapted to %s at n = %d; gate %s: its held-back pairs %+.2f dB when restored (margin %+.2f dB), so "
-             "the renders are %s\n",
+             "%s: adapted to %s at n = %d; gate %s: its held-back pairs %+.2f dB when restored (margin %+.2f dB, %s "
+             "composition), so the renders are %s\n",
              ckpt, a.scene, a.interval, s->gate, gv_scene_gate_change(&a), a.gate_margin_db,
-             a.gate_open ? "restored" : "left unchanged");
+             gv_compose_name(gate_compose), a.gate_open ? "restored" : "left unchanged");
     return 0;
 }
 

@@ -31,9 +31,11 @@ typedef struct {
 } gv_restore_session;
 /* A scene checkpoint's gate and scope (scene_adapt.h): sets o->keep_renders when the gate is
  * closed, restricts o to the scene and interval it was adapted to (failing when --scene or
- * --interval asked for others) and writes the line that says what happens into line (empty
- * for other checkpoints); s->gate gets "open", "closed" or NULL. */
-int gv_restore_cli_gate(const char *ckpt, gv_restore_options *o, char *line, size_t size, gv_restore_session *s);
+ * --interval asked for others), sets o->compose to the composition the gate measured (failing
+ * when compose_given named another) and writes the line that says what happens into line
+ * (empty for other checkpoints); s->gate gets "open", "closed" or NULL. */
+int gv_restore_cli_gate(const char *ckpt, int compose_given, gv_restore_options *o, char *line, size_t size,
+                        gv_restore_session *s);
 /* Loads the checkpoint (saying what it is; a scene checkpoint over its base), applies a scene
  * checkpoint's gate to o (printing the line that says what happens), loads the --lpips weights,
  * and makes o hand every restored clip to s->table. s is freed by gv_restore_cli_end whatever

@@ -7,6 +7,8 @@
 
 #include "gaussvid/adapt.h"
 #include "gaussvid/core.h"
+#include "gaussvid/coverage.h"
+#include "gaussvid/ply.h"
 #include "gaussvid/restore.h"
 #include "gaussvid/scene_adapt.h"
 #include "pipeline/pipeline_internal.h"
@@ -53,8 +55,9 @@ static int clip_frame_index(const pipeline_run *r, int entry)
 
 /* Clip c as a clip file: anchors the ground truth of the training views, intermediates the
  * renders; their targets the ground truth (held-out) or, on a path, the renders again (no
- * ground truth there; nothing reads them). */
-static int write_clip(pipeline_run *r, int c, const char *path)
+ * ground truth there; nothing reads them); its coverage plane from the sparse model's depth,
+ * as `dataset build` computes it (the coverage variant and the unseen composition read it). */
+static int write_clip(pipeline_run *r, const gv_gaussians *sparse, int c, const char *path)
 {
     const int *entries = r->clips[c];
     const gv_camera *cams[GV_CLIP_FRAMES];
@@ -96,7 +99,10 @@ static int write_clip(pipeline_run *r, int c, const char *path)
     info.width = owned[0].width, info.height = owned[0].height;
     gv_clip clip = {0};
     if (rc == 0) rc = gv_clip_alloc(&clip, &info);
-    if (rc == 0) rc = gv_clip_fill(&clip, frames, inputs, targets, cams) || gv_clip_write(path, &clip);
+    if (rc == 0)
+        rc = gv_clip_fill(&clip, frames, inputs, targets, cams) ||
+             gv_clip_coverage_gaussians(&clip, sparse, cams, GV_COVERAGE_TOLERANCE, GV_COVERAGE_MIN_OPACITY) ||
+             gv_clip_write(path, &clip);
     gv_clip_free(&clip);
     for (int i = 0; i < 2 * GV_CLIP_FRAMES; i++) gv_image_free(&owned[i]);
     return rc ? gv_fail_context("%s: clip %d", r->dir, c) : 0;
@@ -137,11 +143,17 @@ int pipeline_restore(pipeline_run *r)
     char (*paths)[4300] = calloc((size_t)r->n_clips, sizeof *paths);
     const char **names = calloc((size_t)r->n_clips, sizeof *names);
     int rc = paths && names ? 0 : gv_fail("out of memory for %d clips", r->n_clips);
+    char sparse_path[4200];
+    gv_gaussians sparse;
+    memset(&sparse, 0, sizeof sparse);
+    if (rc == 0)
+        rc = pipeline_file(r, "sparse.ply", sparse_path, sizeof sparse_path) || gv_gaussians_read_ply(sparse_path, &sparse);
     for (int c = 0; c < r->n_clips && rc == 0; c++) {
         snprintf(paths[c], sizeof paths[c], "%s/clip_%04d.safetensors", clips_dir, c);
         names[c] = paths[c];
-        rc = write_clip(r, c, paths[c]);
+        rc = write_clip(r, &sparse, c, paths[c]);
     }
+    gv_gaussians_free(&sparse);
     gv_restore_options ro;
     memset(&ro, 0, sizeof ro);
     ro.sampler = gv_sampler_default();
@@ -152,6 +164,8 @@ int pipeline_restore(pipeline_run *r)
     gv_scene_adaptation a;
     int scene_ckpt = rc == 0 ? gv_scene_checkpoint_is(r->restorer) : 0;
     if (scene_ckpt < 0 || (scene_ckpt == 1 && gv_scene_checkpoint_read(r->restorer, &a))) rc = -1;
+    /* a scene checkpoint restores as its gate measured: with its composition */
+    if (rc == 0 && scene_ckpt == 1 && a.gate_compose[0] && gv_compose_from_name(a.gate_compose, &ro.compose)) rc = -1;
     ro.keep_renders = scene_ckpt == 1 && !a.gate_open;
     gv_restorer net;
     memset(&net, 0, sizeof net);
@@ -167,8 +181,8 @@ int pipeline_restore(pipeline_run *r)
             snprintf(r->summary, sizeof r->summary, "%d clips: the scene checkpoint's gate is closed, so the renders "
                      "are kept unchanged", r->n_clips);
         else
-            snprintf(r->summary, sizeof r->summary, "%d clips restored with %s (%s, residual composition)", r->n_clips,
-                     r->restorer, sampler);
+            snprintf(r->summary, sizeof r->summary, "%d clips restored with %s (%s, %s composition)", r->n_clips,
+                     r->restorer, sampler, gv_compose_name(ro.compose));
     }
     free(paths), free(names);
     return rc;

@@ -153,6 +153,7 @@ static int measure_gate(const gv_adapt_options *o, const char *pairs, const char
     char text[200];
     gv_sampler_describe(&o->sampler, text, sizeof text);
     snprintf(a->gate_sampler, sizeof a->gate_sampler, "%s, %s composition", text, gv_compose_name(o->compose));
+    snprintf(a->gate_compose, sizeof a->gate_compose, "%s", gv_compose_name(o->compose));
     a->gate_margin_db = o->gate_margin_db, a->gate_min_frames = o->gate_min_frames;
     a->harm_max_loss_db = o->harm_max_loss_db;
     a->gate_open = gv_scene_gate_decide(a);
@@ -195,8 +196,9 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
         gv_scene_free(&scene);
         return -1;
     }
-    gv_internal_options po = {o->interval, o->iters, o->train.seed, o->simulator, pairs, 0, want.variant.coverage};
-    gv_internal_options ho = {o->interval, o->iters, o->train.seed, o->simulator, harm, 1, want.variant.coverage};
+    int planes = want.variant.coverage || o->compose == GV_COMPOSE_UNSEEN; /* both read the coverage plane */
+    gv_internal_options po = {o->interval, o->iters, o->train.seed, o->simulator, pairs, 0, planes};
+    gv_internal_options ho = {o->interval, o->iters, o->train.seed, o->simulator, harm, 1, planes};
     /* under mpirun rank 0 builds the clips and the others wait for them: only the fine-tuning
      * is shared among the ranks */
     int rc = gv_dist_is_root() ? gv_internal_build(&scene, &po, &r->pairs) : 0;

@@ -1,6 +1,7 @@
 /* The restored clip in pixels (restore.h): anchors from the input, intermediates decoded from
  * the restored latent, or the render corrected by the decoded change of the latent
- * (gv_vae_decode_residual, docs/VAE.md "Residual decoding"). */
+ * (gv_vae_decode_residual, docs/VAE.md "Residual decoding"), everywhere or only on the pixels
+ * no anchor sees (the clip's coverage plane). */
 #include <stdlib.h>
 #include <string.h>
 
@@ -9,14 +10,15 @@
 
 const char *gv_compose_name(gv_compose c)
 {
-    return c == GV_COMPOSE_RESIDUAL ? "residual" : "decoded";
+    return c == GV_COMPOSE_RESIDUAL ? "residual" : c == GV_COMPOSE_UNSEEN ? "unseen" : "decoded";
 }
 
 int gv_compose_from_name(const char *name, gv_compose *out)
 {
     if (!strcmp(name, "decoded")) *out = GV_COMPOSE_DECODED;
     else if (!strcmp(name, "residual")) *out = GV_COMPOSE_RESIDUAL;
-    else return gv_fail("composition '%s': expected decoded or residual", name);
+    else if (!strcmp(name, "unseen")) *out = GV_COMPOSE_UNSEEN;
+    else return gv_fail("composition '%s': expected decoded, residual or unseen", name);
     return 0;
 }
 
@@ -39,10 +41,13 @@ int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *
     const int64_t plane = (int64_t)info->height * info->width, frame_bytes = plane * 3;
     const int F = l->batch == 1 ? GV_CLIP_FRAMES : 1; /* frames per decoded video */
     const int64_t per = gv_clip_latents_z_count(l) / l->batch;
+    if (mode == GV_COMPOSE_UNSEEN && !clip->coverage)
+        return gv_fail("restore: the unseen composition needs the clip's coverage plane, and this clip has none "
+                       "(clips built before it: build them again)");
     memcpy(out, clip->inputs, (size_t)(GV_CLIP_FRAMES * frame_bytes));
     float *video = malloc((size_t)(3 * F * plane) * sizeof *video);
-    float *render = mode == GV_COMPOSE_RESIDUAL ? malloc((size_t)(3 * F * plane) * sizeof *render) : NULL;
-    if (!video || (mode == GV_COMPOSE_RESIDUAL && !render)) {
+    float *render = mode != GV_COMPOSE_DECODED ? malloc((size_t)(3 * F * plane) * sizeof *render) : NULL;
+    if (!video || (mode != GV_COMPOSE_DECODED && !render)) {
         free(video), free(render);
         return gv_fail("restore: out of memory for a %dx%d clip", info->width, info->height);
     }
@@ -62,9 +67,12 @@ int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *
             int f = first + k;
             if (f == 0 || f == GV_CLIP_FRAMES - 1) continue;
             uint8_t *dst = out + f * frame_bytes;
+            /* unseen: where an anchor sees the pixel, the render (already in out) stays */
+            const uint8_t *seen = mode == GV_COMPOSE_UNSEEN ? clip->coverage + (f - 1) * plane : NULL;
             for (int c = 0; c < 3; c++) {
                 const float *src = video + ((int64_t)c * F + k) * plane;
-                for (int64_t p = 0; p < plane; p++) dst[p * 3 + c] = to_u8(src[p]);
+                for (int64_t p = 0; p < plane; p++)
+                    if (!seen || !seen[p]) dst[p * 3 + c] = to_u8(src[p]);
             }
         }
     }

@@ -92,6 +92,7 @@ typedef struct {
 #define TEXT(k, m) {k, FIELD_TEXT, offsetof(gv_scene_adaptation, m), sizeof(((gv_scene_adaptation *)0)->m), 0}
 #define NUM(k, t, m) {k, t, offsetof(gv_scene_adaptation, m), 0, 0}
 #define LATER(k, t, m) {k, t, offsetof(gv_scene_adaptation, m), 0, 1}
+#define LATER_TEXT(k, m) {k, FIELD_TEXT, offsetof(gv_scene_adaptation, m), sizeof(((gv_scene_adaptation *)0)->m), 1}
 static const field fields[] = {
     TEXT("scene", scene), NUM("interval", FIELD_INT, interval), NUM("iters", FIELD_INT, iters),
     TEXT("base_checksum", base_checksum), NUM("train_clips", FIELD_INT, train_clips),
@@ -107,6 +108,7 @@ static const field fields[] = {
     LATER("harm_max_loss_db", FIELD_DOUBLE, harm_max_loss_db), LATER("harm_frames", FIELD_INT, harm_frames),
     LATER("harm_psnr_base", FIELD_DOUBLE, harm_psnr_base), LATER("harm_psnr_restored", FIELD_DOUBLE, harm_psnr_restored),
     LATER("harm_ssim_base", FIELD_DOUBLE, harm_ssim_base), LATER("harm_ssim_restored", FIELD_DOUBLE, harm_ssim_restored),
+    LATER_TEXT("gate_compose", gate_compose),
 };
 #define N_FIELDS (int)(sizeof fields / sizeof fields[0])
 

@@ -126,6 +126,19 @@ has "the renders are restored"
 check "open gate: the network restores" files_differ "${clips[0]}" "restored/$(basename "${clips[0]}")"
 expect 0 "restore one clip, gate closed" -- "$G" restore --ckpt closed.safetensors --clip "${clips[1]}" --out one --quiet
 has "left unchanged"
+# A gate measured with the unseen composition (its pairs carry coverage planes): recorded, and
+# restore composes as the gate measured; another composition asked for is refused.
+expect 0 "adapt, unseen composition" -- "$G" adapt "${AD[@]}" --out unseen.safetensors --work u.work \
+    --gate-margin -1000 --gate-min-frames 1 --compose unseen
+check "the composition recorded" grep -q '"unseen"' <(meta unseen.safetensors gate_compose)
+check "the sampler line names it" grep -q "unseen composition" <("$G" st inspect --json unseen.safetensors)
+expect 0 "restore, unseen composition" -- "$G" restore --ckpt unseen.safetensors --clips R --out ru --save-clips --quiet
+has "unseen composition), so the renders are restored"
+check "the unseen composition restores" files_differ "${clips[0]}" "ru/$(basename "${clips[0]}")"
+check "and composes otherwise than residual" files_differ "restored/$(basename "${clips[0]}")" "ru/$(basename "${clips[0]}")"
+expect 1 "restore with another composition" -- "$G" restore --ckpt unseen.safetensors --clips R --out rx --compose residual --quiet
+check "says why" grep -qF "its gate measured the unseen composition" "$T/err"
+expect 2 "an unknown composition" -- "$G" adapt "${AD[@]}" --out x.safetensors --compose blend
 # A scene checkpoint restores only its scene at its n: in a dataset with n = 4 and n = 6 it
 # takes the two n = 4 clips; a clip file or a selection of another n is refused.
 expect 0 "renders at n = 4 and 6" -- "$G" dataset build --scenes A --intervals 4,6 --iters 20 --clips-per-run 2 \

@@ -89,6 +89,7 @@ for st in restore refine evaluate video; do
 done
 cp all_out "$T/out"
 has "n=6 restore: 8 clips restored"
+check "the clips carry their coverage plane" grep -q '"coverage"' <("$G" st inspect --json R/n6/clips/clip_0000.safetensors)
 has "n=6 evaluate: PSNR sparse"
 for d in render restored refined; do
     check "20 $d frames" test "$(ls R/n6/frames/$d | wc -l)" -eq 20
