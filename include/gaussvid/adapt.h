@@ -37,6 +37,9 @@ typedef struct {
                                         stop_after; the rest is set by gv_adapt_scene */
     gv_sampler sampler;              /* how the gate restores the held-back pairs: as restore would */
     gv_compose compose;
+    int early_stop_psnr;             /* 1: the step is chosen by the held-back pairs' PSNR change,
+                                        restored as the gate restores them (sampler, composition);
+                                        0: by their latent gain (the trainer's validation) */
     double gate_margin_db;           /* the gate opens when the held-back PSNR change exceeds this */
     int gate_min_frames;             /* ... measured on at least this many held-back frames */
     double harm_max_loss_db;         /* ... and their do-no-harm clips lose less than this (>= 0) */

@@ -91,18 +91,30 @@ void gv_latent_set_view_free(gv_latent_set *view);
 
 typedef struct {
     long step;                   /* the best step so far (-1: none yet) */
-    double gain_db, loss, identity; /* its held-back validation (gv_validation's all_*) */
+    double gain_db, loss, identity; /* its held-back validation (gv_validation's all_*; gain_db
+                                       the score's when a score chooses) */
     double first_gain_db, first_loss; /* at step 0: the base's adapters */
 } gv_adapt_best;
 
+/* What chooses the step instead of the held-back latent gain: a score of the network as it is
+ * at a validation (higher is better, in dB), e.g. the held-back pairs' PSNR change when
+ * restored as the gate restores them (adapt.c). It must not change the network. */
+typedef struct {
+    int (*fn)(void *ctx, gv_dit *m, double *gain_db);
+    void *ctx;
+    const char *name;            /* recorded with the best step, so a best file another score
+                                    chose is not taken over by a resumed run */
+} gv_adapt_score;
+
 /* Fine-tunes m (its trainable tensors) on train with o, validating on held every
  * o->val_every steps and at step 0, and keeps the adapters of the step with the highest mean
- * held-back latent gain (the earliest on a tie) in best_path, which a resumed run continues
- * from (when written by the same options and clips). When step S is reached, m holds those
- * adapters. Returns 0 when done, 1 when the run stopped before S (o->stop_after) and on the
- * ranks of an mpirun job other than 0, which end after the last step (dist.h). */
+ * held-back latent gain, or score when given (the earliest on a tie), in best_path, which a
+ * resumed run continues from (when written by the same options, score and clips). When step S
+ * is reached, m holds those adapters. Returns 0 when done, 1 when the run stopped before S
+ * (o->stop_after) and on the ranks of an mpirun job other than 0, which end after the last
+ * step (dist.h). */
 int gv_adapt_train(gv_dit *m, const gv_model_config *cfg, const gv_latent_set *train, const gv_latent_set *held,
-                   gv_train_options *o, const gv_train_state *meta, const char *best_path, gv_adapt_best *best,
-                   gv_train_report *report);
+                   gv_train_options *o, const gv_train_state *meta, const gv_adapt_score *score, const char *best_path,
+                   gv_adapt_best *best, gv_train_report *report);
 
 #endif

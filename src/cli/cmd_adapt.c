@@ -40,7 +40,7 @@ int cmd_adapt(int argc, char **argv)
     gv_adapt_options o;
     gv_adapt_defaults(&o);
     const char *schedule = gv_lr_kind_name(o.train.lr_schedule), *crop = NULL, *sampler = GV_SAMPLER_DEFAULT,
-               *compose = GV_COMPOSE_DEFAULT;
+               *compose = GV_COMPOSE_DEFAULT, *early_stop = NULL;
     int steps = (int)o.train.steps, val_every = (int)o.train.val_every, stop_after = 0, seed = 0;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (COLMAP sparse/0 or transforms.json)", 1},
@@ -71,6 +71,9 @@ int cmd_adapt(int argc, char **argv)
         {"harm-max-loss", GV_FLAG_DOUBLE, &o.harm_max_loss_db, "DB",
          "... and the do-no-harm clips (nearly clean renders) lose less than DB (default 0.05)", 0},
         {"sampler", GV_FLAG_STRING, &sampler, "NAME", "the sampler the gate restores with (default " GV_SAMPLER_DEFAULT ", restore's)", 0},
+        {"early-stop", GV_FLAG_STRING, &early_stop, "BY",
+         "choose the step by the held-back pairs' latent gain (latent) or their PSNR change restored as the gate "
+         "restores (psnr; a gate pass per validation); default latent", 0},
         {"compose", GV_FLAG_STRING, &compose, "MODE",
          "the composition the gate restores with: residual, decoded or unseen (default " GV_COMPOSE_DEFAULT ", restore's)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "seed of the internal 3DGS runs and the fine-tuning (default 0)", 0},
@@ -104,6 +107,11 @@ int cmd_adapt(int argc, char **argv)
         fprintf(stderr, "gaussvid adapt: %s\n", gv_last_error());
         return 2;
     }
+    if (early_stop && strcmp(early_stop, "latent") && strcmp(early_stop, "psnr")) {
+        fprintf(stderr, "gaussvid adapt: --early-stop %s: expected latent or psnr\n", early_stop);
+        return 2;
+    }
+    if (early_stop) o.early_stop_psnr = !strcmp(early_stop, "psnr");
     if (crop && gv_parse_crop("adapt", crop, &o.train.crop_h, &o.train.crop_w)) return 2;
     o.train.steps = steps, o.train.val_every = val_every, o.train.stop_after = stop_after;
     o.train.seed = (uint64_t)seed;

@@ -160,6 +160,23 @@ static int measure_gate(const gv_adapt_options *o, const char *pairs, const char
     return 0;
 }
 
+/* gv_adapt_score of --early-stop psnr: the held-back pairs' PSNR change, restored with the
+ * network as it is now exactly as the gate will restore them. */
+typedef struct {
+    const gv_adapt_options *o;
+    adapt_run *x;
+    const char *pairs;
+} psnr_score;
+
+static int held_psnr_change(void *ctx, gv_dit *m, double *gain_db)
+{
+    psnr_score *s = ctx;
+    gv_gate_measure g;
+    if (gv_adapt_measure(m, &s->x->base.vae, s->pairs, &s->x->held, &s->o->sampler, s->o->compose, &g)) return -1;
+    *gain_db = g.psnr_restored - g.psnr_base;
+    return 0;
+}
+
 /* The training state the scene checkpoint records: the fine-tuning's, naming the base. */
 static int scene_state(const gv_adapt_options *o, const char *final, gv_train_state *s)
 {
@@ -233,7 +250,10 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
             a->scene, o->interval, x->train.count, x->held.count,
             o->harm_train ? ", each with its do-no-harm clip" : "", to.steps, to.batch, to.lr,
             gv_lr_kind_name(to.lr_schedule));
-    rc = gv_adapt_train(&x->base.net, &x->base.cfg, fit, check, &to, &meta, best_path, &r->best, &r->train);
+    psnr_score ps = {o, x, pairs};
+    gv_adapt_score score = {held_psnr_change, &ps, "PSNR change"};
+    rc = gv_adapt_train(&x->base.net, &x->base.cfg, fit, check, &to, &meta, o->early_stop_psnr ? &score : NULL,
+                        best_path, &r->best, &r->train);
     if (rc) return rc < 0 ? -1 : 0; /* 1: stopped before the last step */
     a->seconds_train = gv_now() - t, t = gv_now();
 

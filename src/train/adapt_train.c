@@ -86,6 +86,7 @@ typedef struct {
     char training[GV_CHECKPOINT_TEXT], data[GV_CHECKPOINT_TEXT];
     gv_adapt_best *best;
     long every, steps;           /* the steps that count: multiples of every, and S */
+    const gv_adapt_score *score; /* NULL: the latent gain chooses */
 } keeper;
 
 static int save_best(const keeper *k, gv_dit *m)
@@ -110,9 +111,14 @@ static int keep_best(void *ctx, gv_dit *m, long step, const gv_validation *v)
     /* an invocation that stops early validates its last step too: not a step of the run's own
      * schedule, so it does not count (the interrupted run keeps the uninterrupted one's step) */
     if (step % k->every && step != k->steps) return 0;
-    if (step == 0) b->first_gain_db = v->all_gain_db, b->first_loss = v->all_loss;
-    if (b->step >= 0 && !(v->all_gain_db > b->gain_db)) return 0;
-    b->step = step, b->gain_db = v->all_gain_db, b->loss = v->all_loss, b->identity = v->all_identity;
+    double gain = v->all_gain_db;
+    if (k->score) {
+        if (k->score->fn(k->score->ctx, m, &gain)) return -1;
+        gv_info("adapt: step %ld: held-back %s %+.3f dB (latent %+.3f dB)", step, k->score->name, gain, v->all_gain_db);
+    }
+    if (step == 0) b->first_gain_db = gain, b->first_loss = v->all_loss;
+    if (b->step >= 0 && !(gain > b->gain_db)) return 0;
+    b->step = step, b->gain_db = gain, b->loss = v->all_loss, b->identity = v->all_identity;
     return save_best(k, m);
 }
 
@@ -146,12 +152,16 @@ static void resume_best(const keeper *k)
 }
 
 int gv_adapt_train(gv_dit *m, const gv_model_config *cfg, const gv_latent_set *train, const gv_latent_set *held,
-                   gv_train_options *o, const gv_train_state *meta, const char *best_path, gv_adapt_best *best,
-                   gv_train_report *report)
+                   gv_train_options *o, const gv_train_state *meta, const gv_adapt_score *score, const char *best_path,
+                   gv_adapt_best *best, gv_train_report *report)
 {
     if (o->val_every < 1) return gv_fail("adapt: the validation interval must be positive");
-    keeper k = {best_path, "", "", best, o->val_every, o->steps};
+    keeper k = {best_path, "", "", best, o->val_every, o->steps, score};
     gv_train_options_text(o, k.training, sizeof k.training);
+    if (score) { /* the choice is the score's: a best file of the latent choice is not this run's */
+        size_t len = strlen(k.training);
+        snprintf(k.training + len, sizeof k.training - len, "; best step by %s", score->name);
+    }
     snprintf(k.data, sizeof k.data, "%s", meta->data);
     memset(best, 0, sizeof *best);
     best->step = -1;

@@ -139,6 +139,18 @@ check "and composes otherwise than residual" files_differ "restored/$(basename "
 expect 1 "restore with another composition" -- "$G" restore --ckpt unseen.safetensors --clips R --out rx --compose residual --quiet
 check "says why" grep -qF "its gate measured the unseen composition" "$T/err"
 expect 2 "an unknown composition" -- "$G" adapt "${AD[@]}" --out x.safetensors --compose blend
+# The step chosen by the held-back pairs' PSNR change: scored at every validation, the same
+# trajectory as the latent choice (scoring never changes the network), and the kept step's
+# score is the gate's own measurement of it.
+mkdir -p e.work && cp -r a.safetensors.work/pairs a.safetensors.work/harm e.work/
+expect 0 "adapt --early-stop psnr" -- "$G" adapt "${AD[@]}" --out e.safetensors --work e.work --early-stop psnr
+check "scored at every validation" test "$(grep -c 'held-back PSNR change' "$T/err")" -eq 3
+check "the same trajectory as the latent choice" same_data a.safetensors.work/train.safetensors e.work/train.safetensors
+num() { meta "$1" "$2" | grep -oE '[-0-9.e+]+"?$' | tr -d '"'; }
+check "the kept step's score is the gate's measurement" awk -v s="$(num e.safetensors val_gain_db)" \
+    -v r="$(num e.safetensors gate_psnr_restored)" -v b="$(num e.safetensors gate_psnr_base)" \
+    'BEGIN { if (s == "" || r == "" || b == "") exit 1; d = s - (r - b); exit !(d < 1e-6 && d > -1e-6) }'
+expect 2 "an unknown early stop" -- "$G" adapt "${AD[@]}" --out x.safetensors --early-stop loss
 # A scene checkpoint restores only its scene at its n: in a dataset with n = 4 and n = 6 it
 # takes the two n = 4 clips; a clip file or a selection of another n is refused.
 expect 0 "renders at n = 4 and 6" -- "$G" dataset build --scenes A --intervals 4,6 --iters 20 --clips-per-run 2 \
