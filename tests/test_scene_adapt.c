@@ -185,6 +185,17 @@ static void test_gate_decide(void)
     CHECK(gv_scene_gate_decide(&a) == 0); /* no gain: the margin is strict */
     a.gate_psnr_restored = 20.3, a.gate_margin_db = 0.5;
     CHECK(gv_scene_gate_decide(&a) == 0); /* under the margin */
+    /* the unseen composition: the do-no-harm clips are measured but do not rule; the rest does */
+    a.gate_margin_db = 0.0, a.harm_psnr_restored = 25.0;
+    CHECK(gv_scene_harm_rules(&a) == 1 && gv_scene_gate_decide(&a) == 0);
+    snprintf(a.gate_compose, sizeof a.gate_compose, "residual");
+    CHECK(gv_scene_harm_rules(&a) == 1 && gv_scene_gate_decide(&a) == 0);
+    snprintf(a.gate_compose, sizeof a.gate_compose, "unseen");
+    CHECK(gv_scene_harm_rules(&a) == 0 && gv_scene_gate_decide(&a) == 1);
+    a.gate_frames = 3;
+    CHECK(gv_scene_gate_decide(&a) == 0); /* too few frames, whatever the composition */
+    a.gate_frames = 4, a.gate_psnr_restored = 19.9;
+    CHECK(gv_scene_gate_decide(&a) == 0); /* a loss on the pairs */
 }
 
 int main(void)

@@ -28,7 +28,9 @@ typedef struct {
     char base_checksum[48];         /* "fnv1a64:<16 hex>" of the base file's bytes */
     int train_clips, held_back;     /* internal clips trained on / held back for validation */
     long best_step;                 /* the step kept (0: the base's adapters unchanged) */
-    double val_gain_db;             /* held-back latent validation at that step (train.h) */
+    char best_by[32];               /* what chose it: "latent gain" or "PSNR change" ("" in
+                                       checkpoints from before the choice existed: latent gain) */
+    double val_gain_db;             /* that held-back gain at that step, in dB */
     double val_loss, val_identity;
     int gate_open;                  /* 1: restore; 0: leave the renders unchanged */
     double gate_margin_db;          /* the gate opens when the PSNR change exceeds this */
@@ -53,7 +55,11 @@ double gv_scene_gate_change(const gv_scene_adaptation *a);
 double gv_scene_harm_change(const gv_scene_adaptation *a);
 /* The gate's decision from the measurements: 1 (open) when the held-back pairs gain more than
  * gate_margin_db over at least gate_min_frames frames and, when the do-no-harm clips were
- * measured, their change is above -harm_max_loss_db. */
+ * measured, their change is above -harm_max_loss_db. The do-no-harm test does not rule the
+ * unseen composition (gate_compose "unseen"; gv_scene_harm_rules): that changes only pixels no
+ * anchor sees, and a do-no-harm clip's are right only because its own view trained them,
+ * which no held-out render's can be (docs/ADAPT.md step 5). */
+int gv_scene_harm_rules(const gv_scene_adaptation *a);
 int gv_scene_gate_decide(const gv_scene_adaptation *a);
 /* Writes the adapters of m (the tensors fine-tuning trains) with the config, state (its kind
  * becomes "scene"; its base names the base checkpoint) and a; atomic. */

@@ -19,15 +19,20 @@ static const char *closed_because(const gv_scene_adaptation *a)
 static void print_summary(const char *out, const gv_adapt_report *r)
 {
     const gv_scene_adaptation *a = &r->adaptation;
-    printf("%s: %s n=%d: %d internal clips trained on, %d held back; step %ld kept (held-back latent gain %+.3f dB)\n",
-           out, a->scene, a->interval, a->train_clips, a->held_back, a->best_step, a->val_gain_db);
+    printf("%s: %s n=%d: %d internal clips trained on, %d held back; step %ld kept (held-back %s %+.3f dB)\n",
+           out, a->scene, a->interval, a->train_clips, a->held_back, a->best_step,
+           a->best_by[0] ? a->best_by : "latent gain", a->val_gain_db);
     printf("held-back pairs: %.2f dB / %.4f as rendered, %.2f dB / %.4f restored (%+.2f dB over %d frames, margin "
            "%+.2f dB)\n", a->gate_psnr_base, a->gate_ssim_base, a->gate_psnr_restored, a->gate_ssim_restored,
            gv_scene_gate_change(a), a->gate_frames, a->gate_margin_db);
-    if (a->harm_frames > 0)
+    if (a->harm_frames > 0 && gv_scene_harm_rules(a))
         printf("their do-no-harm clips: %.2f dB / %.4f as rendered, %.2f dB / %.4f restored (%+.2f dB over %d frames, "
                "at most -%.2f dB allowed)\n", a->harm_psnr_base, a->harm_ssim_base, a->harm_psnr_restored,
                a->harm_ssim_restored, gv_scene_harm_change(a), a->harm_frames, a->harm_max_loss_db);
+    else if (a->harm_frames > 0)
+        printf("their do-no-harm clips: %.2f dB / %.4f as rendered, %.2f dB / %.4f restored (%+.2f dB over %d frames; "
+               "not a test of the unseen composition, which changes only pixels no anchor sees)\n", a->harm_psnr_base,
+               a->harm_ssim_base, a->harm_psnr_restored, a->harm_ssim_restored, gv_scene_harm_change(a), a->harm_frames);
     if (a->gate_open) printf("gate open: restore and eval will restore this scene's renders\n");
     else printf("gate closed: %s; restore and eval will leave this scene's renders unchanged\n", closed_because(a));
     if (!r->already)

@@ -264,6 +264,7 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
     a->interval = o->interval, a->iters = o->iters;
     a->train_clips = x->train.count, a->held_back = x->held.count;
     a->best_step = r->best.step;
+    snprintf(a->best_by, sizeof a->best_by, "%s", o->early_stop_psnr ? "PSNR change" : "latent gain");
     a->val_gain_db = r->best.gain_db, a->val_loss = r->best.loss, a->val_identity = r->best.identity;
     if (write_checkpoint(o, work, x, r)) return -1;
     r->done = 1;

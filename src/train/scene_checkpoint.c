@@ -16,10 +16,15 @@
 double gv_scene_gate_change(const gv_scene_adaptation *a) { return a->gate_psnr_restored - a->gate_psnr_base; }
 double gv_scene_harm_change(const gv_scene_adaptation *a) { return a->harm_psnr_restored - a->harm_psnr_base; }
 
+int gv_scene_harm_rules(const gv_scene_adaptation *a)
+{
+    return a->harm_frames > 0 && strcmp(a->gate_compose, "unseen") != 0;
+}
+
 int gv_scene_gate_decide(const gv_scene_adaptation *a)
 {
     int gains = gv_scene_gate_change(a) > a->gate_margin_db && a->gate_frames >= a->gate_min_frames;
-    int harmless = a->harm_frames == 0 || gv_scene_harm_change(a) > -a->harm_max_loss_db;
+    int harmless = !gv_scene_harm_rules(a) || gv_scene_harm_change(a) > -a->harm_max_loss_db;
     return gains && harmless;
 }
 
@@ -108,7 +113,7 @@ static const field fields[] = {
     LATER("harm_max_loss_db", FIELD_DOUBLE, harm_max_loss_db), LATER("harm_frames", FIELD_INT, harm_frames),
     LATER("harm_psnr_base", FIELD_DOUBLE, harm_psnr_base), LATER("harm_psnr_restored", FIELD_DOUBLE, harm_psnr_restored),
     LATER("harm_ssim_base", FIELD_DOUBLE, harm_ssim_base), LATER("harm_ssim_restored", FIELD_DOUBLE, harm_ssim_restored),
-    LATER_TEXT("gate_compose", gate_compose),
+    LATER_TEXT("gate_compose", gate_compose), LATER_TEXT("best_by", best_by),
 };
 #define N_FIELDS (int)(sizeof fields / sizeof fields[0])
 

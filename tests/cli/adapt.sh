@@ -131,6 +131,7 @@ has "left unchanged"
 expect 0 "adapt, unseen composition" -- "$G" adapt "${AD[@]}" --out unseen.safetensors --work u.work \
     --gate-margin -1000 --gate-min-frames 1 --compose unseen
 check "the composition recorded" grep -q '"unseen"' <(meta unseen.safetensors gate_compose)
+has "not a test of the unseen composition"
 check "the sampler line names it" grep -q "unseen composition" <("$G" st inspect --json unseen.safetensors)
 expect 0 "restore, unseen composition" -- "$G" restore --ckpt unseen.safetensors --clips R --out ru --save-clips --quiet
 has "unseen composition), so the renders are restored"
@@ -145,6 +146,8 @@ expect 2 "an unknown composition" -- "$G" adapt "${AD[@]}" --out x.safetensors -
 mkdir -p e.work && cp -r a.safetensors.work/pairs a.safetensors.work/harm e.work/
 expect 0 "adapt --early-stop psnr" -- "$G" adapt "${AD[@]}" --out e.safetensors --work e.work --early-stop psnr
 check "scored at every validation" test "$(grep -c 'held-back PSNR change' "$T/err")" -eq 3
+check "what chose the step recorded" grep -q "PSNR change" <(meta e.safetensors best_by)
+has "kept (held-back PSNR change"
 check "the same trajectory as the latent choice" same_data a.safetensors.work/train.safetensors e.work/train.safetensors
 num() { meta "$1" "$2" | grep -oE '[-0-9.e+]+"?$' | tr -d '"'; }
 check "the kept step's score is the gate's measurement" awk -v s="$(num e.safetensors val_gain_db)" \
