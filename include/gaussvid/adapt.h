@@ -22,8 +22,9 @@ typedef struct {
     const char *base;                /* the cross-scene checkpoint (models/gaussvid-small.safetensors) */
     const char *config;              /* the network the base must be (preset or file; NULL: "small") */
     const char *variant;             /* a variant over the base's (gv_model_config_set_variant); default
-                                        "residual": the output relearned from zero, starting at the
-                                        identity; NULL or "base": the base's own */
+                                        "residual,coverage": the output relearned from zero, starting at
+                                        the identity, and the anchors' coverage in VACE's mask; NULL or
+                                        "base": the base's own */
     int fresh_camera;                /* the camera encoder from its initialisation, not the base's */
     int harm_train;                  /* 1: fine-tune and validate on the do-no-harm clips too, so
                                         the adapters learn to leave nearly clean renders alone */
@@ -45,9 +46,10 @@ typedef struct {
     double harm_max_loss_db;         /* ... and their do-no-harm clips lose less than this (>= 0) */
 } gv_adapt_options;
 
-/* The defaults (docs/ADAPT.md): the residual output, 8000 iterations, every 3rd clip held
+/* The defaults (docs/ADAPT.md): the residual output with the coverage mask, 8000 iterations, every 3rd clip held
  * back, 300 steps of 2 clips at lr 1e-3 decaying linearly to 0, t ~ U[0, 0.1], no curriculum, no progressive loss,
- * validation every 50 steps; the gate with restore's default sampler and composition, margin 0,
+ * validation every 50 steps, the step chosen by the latent gain; the gate with restore's default sampler and
+ * the unseen composition, margin 0,
  * at least 4 frames, a do-no-harm loss under 0.05 dB. */
 void gv_adapt_defaults(gv_adapt_options *o);
 

@@ -45,7 +45,7 @@ int cmd_adapt(int argc, char **argv)
     gv_adapt_options o;
     gv_adapt_defaults(&o);
     const char *schedule = gv_lr_kind_name(o.train.lr_schedule), *crop = NULL, *sampler = GV_SAMPLER_DEFAULT,
-               *compose = GV_COMPOSE_DEFAULT, *early_stop = NULL;
+               *compose = gv_compose_name(o.compose), *early_stop = NULL;
     int steps = (int)o.train.steps, val_every = (int)o.train.val_every, stop_after = 0, seed = 0;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (COLMAP sparse/0 or transforms.json)", 1},
@@ -55,8 +55,9 @@ int cmd_adapt(int argc, char **argv)
         {"work", GV_FLAG_STRING, &o.work_dir, "DIR", "the work folder (default FILE.work): internal pairs, latents, resumable training", 0},
         {"config", GV_FLAG_STRING, &o.config, "PRESET|FILE", "the network the base must be (default small)", 0},
         {"variant", GV_FLAG_STRING, &o.variant, "V",
-         "a variant over the base's: residual (default: the output relearned from zero, so the adaptation "
-         "starts at the identity), or base (the base's own output); docs/TRAINING.md", 0},
+         "a variant over the base's: residual,coverage (default: the output relearned from zero, so the adaptation "
+         "starts at the identity, and the anchors' coverage in VACE's mask), residual, or base (the base's own "
+         "output); docs/TRAINING.md", 0},
         {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's", 0},
         {"iters", GV_FLAG_INT, &o.iters, "N", "3DGS iterations of each internal subset model (default 8000, as dataset build)", 0},
         {"downscale", GV_FLAG_INT, &o.downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
@@ -80,7 +81,7 @@ int cmd_adapt(int argc, char **argv)
          "choose the step by the held-back pairs' latent gain (latent) or their PSNR change restored as the gate "
          "restores (psnr; a gate pass per validation); default latent", 0},
         {"compose", GV_FLAG_STRING, &compose, "MODE",
-         "the composition the gate restores with: residual, decoded or unseen (default " GV_COMPOSE_DEFAULT ", restore's)", 0},
+         "the composition the gate restores with, recorded for restore: unseen (default), residual or decoded", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "seed of the internal 3DGS runs and the fine-tuning (default 0)", 0},
         {"stop-after", GV_FLAG_INT, &stop_after, "N", "stop the fine-tuning after step N (run again to continue)", 0},
     };

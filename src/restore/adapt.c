@@ -21,7 +21,8 @@ void gv_adapt_defaults(gv_adapt_options *o)
     o->train.steps = 300;
     o->train.batch = 2;
     o->train.lr = 1e-3;
-    o->variant = "residual";          /* step 0 is the identity: the early stop can keep "no change" */
+    o->variant = "residual,coverage"; /* step 0 is the identity: the early stop can keep "no change";
+                                         the network told which pixels the anchors see (RESULTS) */
     o->train.min_lr = 0.0;
     o->train.lr_schedule = GV_LR_LINEAR; /* the last updates at a vanishing rate (docs/TRAINING.md) */
     o->train.t_max = 0.1;             /* the restorer's t0 = 0.05 inside; where the base learns (RESULTS) */
@@ -29,7 +30,8 @@ void gv_adapt_defaults(gv_adapt_options *o)
     o->train.progressive = 0;
     o->train.val_every = 50;
     o->sampler = gv_sampler_default();
-    gv_compose_from_name(GV_COMPOSE_DEFAULT, &o->compose);
+    o->compose = GV_COMPOSE_UNSEEN;   /* keeps what the anchors see: turned every cell's step-300
+                                         damage into a gain or nothing (RESULTS, "The unseen composition") */
     o->gate_margin_db = 0.0;
     o->gate_min_frames = 4;           /* two frames opened livingroom n = 26 and lost 0.68 dB (RESULTS) */
     o->harm_max_loss_db = 0.05;       /* issue 20: no n below -0.05 dB */

@@ -126,7 +126,7 @@ has "the renders are restored"
 check "open gate: the network restores" files_differ "${clips[0]}" "restored/$(basename "${clips[0]}")"
 expect 0 "restore one clip, gate closed" -- "$G" restore --ckpt closed.safetensors --clip "${clips[1]}" --out one --quiet
 has "left unchanged"
-# A gate measured with the unseen composition (its pairs carry coverage planes): recorded, and
+# The gate's composition (unseen by default; its pairs carry coverage planes): recorded, and
 # restore composes as the gate measured; another composition asked for is refused.
 expect 0 "adapt, unseen composition" -- "$G" adapt "${AD[@]}" --out unseen.safetensors --work u.work \
     --gate-margin -1000 --gate-min-frames 1 --compose unseen
@@ -136,7 +136,11 @@ check "the sampler line names it" grep -q "unseen composition" <("$G" st inspect
 expect 0 "restore, unseen composition" -- "$G" restore --ckpt unseen.safetensors --clips R --out ru --save-clips --quiet
 has "unseen composition), so the renders are restored"
 check "the unseen composition restores" files_differ "${clips[0]}" "ru/$(basename "${clips[0]}")"
-check "and composes otherwise than residual" files_differ "restored/$(basename "${clips[0]}")" "ru/$(basename "${clips[0]}")"
+expect 0 "adapt, residual composition" -- "$G" adapt "${AD[@]}" --out rescomp.safetensors --work u.work \
+    --gate-margin -1000 --gate-min-frames 1 --compose residual
+expect 0 "restore, residual composition" -- "$G" restore --ckpt rescomp.safetensors --clips R --out rr --save-clips --quiet
+has "residual composition), so the renders are restored"
+check "unseen composes otherwise than residual" files_differ "rr/$(basename "${clips[0]}")" "ru/$(basename "${clips[0]}")"
 expect 1 "restore with another composition" -- "$G" restore --ckpt unseen.safetensors --clips R --out rx --compose residual --quiet
 check "says why" grep -qF "its gate measured the unseen composition" "$T/err"
 expect 2 "an unknown composition" -- "$G" adapt "${AD[@]}" --out x.safetensors --compose blend
@@ -168,7 +172,7 @@ one_line "a clip of A at n = 6, not of A at n = 4"
 expect 1 "--interval of another n" -- "$G" eval --ckpt open.safetensors --clips R46 --interval 6 --quiet
 one_line "adapted to A at n = 4, not to A at n = 6"
 
-# The residual output (the default, given here by name): relearned from zero, so the step-0
+# The residual output (part of the default, given here alone): relearned from zero, so the step-0
 # validation is the identity's loss exactly; the scene checkpoint holds the new head beside
 # the adapters and restores through a network rebuilt for the variant over its base.
 expect 0 "adapt, residual output" -- "$G" adapt "${AD[@]}" --variant residual --fresh-camera --out res.safetensors
