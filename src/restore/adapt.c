@@ -30,8 +30,8 @@ void gv_adapt_defaults(gv_adapt_options *o)
     o->train.progressive = 0;
     o->train.val_every = 50;
     o->sampler = gv_sampler_default();
-    o->compose = GV_COMPOSE_UNSEEN;   /* keeps what the anchors see: turned every cell's step-300
-                                         damage into a gain or nothing (RESULTS, "The unseen composition") */
+    o->compose = GV_COMPOSE_UNSEEN;   /* keeps what the anchors see: the step-300 adapters' damage
+                                         cut on every cell, a gain on livingroom (RESULTS, "The unseen composition") */
     o->gate_margin_db = 0.0;
     o->gate_min_frames = 4;           /* two frames opened livingroom n = 26 and lost 0.68 dB (RESULTS) */
     o->harm_max_loss_db = 0.05;       /* issue 20: no n below -0.05 dB */
