@@ -30,6 +30,9 @@
 #   GV_DEMO_ITERS           sparse 3DGS iterations [3000]
 #   GV_DEMO_REFINE_ITERS    refinement iterations [1000, reconstruct's default]
 #   GV_DEMO_CKPT            the restorer [models/gaussvid-small.safetensors]
+#   GV_DEMO_ADAPT           1: adapt the restorer to the room first (reconstruct --adapt: the
+#                           issue-20 path, adaptation and its gate; about 23 more CPU-minutes at
+#                           n = 16, estimated from its stages: untimed end to end) [0]
 set -euo pipefail
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} # threads sleep while they wait (docs/BENCHMARKS.md)
 gaussvid=${1:-build/gaussvid}
@@ -41,6 +44,8 @@ interval=${GV_DEMO_INTERVAL:-16}
 iters=${GV_DEMO_ITERS:-3000}
 refine_iters=${GV_DEMO_REFINE_ITERS:-1000}
 ckpt=${GV_DEMO_CKPT:-models/gaussvid-small.safetensors}
+adapt=()
+[ "${GV_DEMO_ADAPT:-0}" = 1 ] && adapt=(--adapt)
 scene=$out/room-$seed
 
 [ -x "$gaussvid" ] || { echo "demo: $gaussvid: not built (run make)" >&2; exit 1; }
@@ -50,6 +55,6 @@ if [ ! -d "$scene" ]; then
     echo "== the default scene: procedural room $seed, $frames frames of $size -> $scene"
     "$gaussvid" scene synth --seed "$seed" --frames "$frames" --size "$size" --out "$scene"
 fi
-echo "== gaussvid reconstruct: n = $interval, $iters sparse iterations, $refine_iters refinement iterations, restorer $ckpt"
+echo "== gaussvid reconstruct: n = $interval, $iters sparse iterations, $refine_iters refinement iterations, restorer $ckpt${adapt:+ adapted to the room}"
 "$gaussvid" reconstruct --scene "$scene" --interval "$interval" --iters "$iters" --refine-iters "$refine_iters" \
-    --ckpt "$ckpt" --out "$out"
+    --ckpt "$ckpt" --out "$out" "${adapt[@]}"
