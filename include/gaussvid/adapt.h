@@ -50,7 +50,7 @@ typedef struct {
  * back, 300 steps of 2 clips at lr 1e-3 decaying linearly to 0, t ~ U[0, 0.1], no curriculum, no progressive loss,
  * validation every 50 steps, the step chosen by the latent gain; the gate with restore's default sampler and
  * the unseen composition, margin 0,
- * at least 4 frames, a do-no-harm loss under 0.05 dB. */
+ * at least 2 frames, a do-no-harm loss under 0.05 dB. */
 void gv_adapt_defaults(gv_adapt_options *o);
 
 typedef struct {

@@ -71,7 +71,7 @@ int cmd_adapt(int argc, char **argv)
         {"val-every", GV_FLAG_INT, &val_every, "K", "validate on the held-back clips every K steps (default 50)", 0},
         {"gate-margin", GV_FLAG_DOUBLE, &o.gate_margin_db, "DB", "restore only when the held-back PSNR gains more than DB (default 0)", 0},
         {"gate-min-frames", GV_FLAG_INT, &o.gate_min_frames, "K",
-         "... measured on at least K held-back frames (default 4; fewer is too little evidence)", 0},
+         "... measured on at least K held-back frames (default 2; fewer is too little evidence)", 0},
         {"harm-train", GV_FLAG_BOOL, &o.harm_train, NULL,
          "fine-tune and validate on the do-no-harm clips too (nearly clean renders the adapters must leave alone)", 0},
         {"harm-max-loss", GV_FLAG_DOUBLE, &o.harm_max_loss_db, "DB",

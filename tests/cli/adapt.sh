@@ -84,11 +84,11 @@ check "the same step kept" test "$(meta a.safetensors best_step)" = "$(meta b.sa
 expect 0 "gate closed" -- "$G" adapt "${AD[@]}" --out closed.safetensors --work b.work --gate-margin 1000
 has "gate closed"
 has "leave this scene's renders unchanged"
-# One held-back frame is too little evidence for the default --gate-min-frames 4.
+# One held-back frame is too little evidence for the default --gate-min-frames 2.
 expect 0 "gate, too few frames" -- "$G" adapt "${AD[@]}" --out few.safetensors --work b.work --gate-margin -1000
 has "gate closed"
 has "too few held-back frames to trust"
-check "the minimum recorded" test "$(meta few.safetensors gate_min_frames | grep -oE '[0-9]+')" = 4
+check "the minimum recorded" test "$(meta few.safetensors gate_min_frames | grep -oE '[0-9]+')" = 2
 expect 0 "gate open" -- "$G" adapt "${AD[@]}" --out open.safetensors --work b.work --gate-margin -1000 --gate-min-frames 1
 has "gate open"
 check "same adapters either way" same_data closed.safetensors open.safetensors
