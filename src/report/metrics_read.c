@@ -171,6 +171,7 @@ static int read_images(reader *r, const cJSON *frame, report_frame *f)
         char name[4096];
         /* the render exists from the first stage on; the others come later (or never: ground truth) */
         rc = read_string(r, images, report_image_names[k], k != IMAGE_RENDER, name, sizeof name);
+        if (rc == 0 && k == IMAGE_RENDER && !name[0]) rc = bad_key(r, report_image_names[k], "expected a path, found \"\"");
         if (rc == 0 && name[0] && !(f->images[k] = strdup(name))) rc = gv_fail("out of memory");
         char buf[64];
         if (rc == 0 && has_control_character(name))

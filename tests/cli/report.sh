@@ -48,6 +48,10 @@ check "the report before stays" cmp -s "$D/report.html" "$T/first.html"
 sed 's/"ssim": /"SSIM": /' "$T/metrics.good" > "$D/metrics.json"
 expect 1 "a missing key" -- "$G" report "$D"
 one_line '.sparse.ssim: missing'
+# An empty render path (the fuzzer's was NUL bytes, which end a JSON string): refused, not read.
+sed '0,/"render": "[^"]*"/s//"render": ""/' "$T/metrics.good" > "$D/metrics.json"
+expect 1 "an empty render path" -- "$G" report "$D"
+one_line '.images.render: expected a path, found ""'
 head -c 200 "$T/metrics.good" > "$D/metrics.json"
 expect 1 "truncated" -- "$G" report "$D"
 one_line 'metrics.json: not valid JSON'
