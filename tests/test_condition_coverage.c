@@ -26,6 +26,16 @@ static int covered_by_hand(int frame, int y, int x)
 
 static void wall_cameras(gv_camera cam[5], const gv_camera *cams[5]);
 
+/* An empty W x H clip and the wall's five cameras. */
+static void wall_clip(gv_clip *clip, gv_camera cam[5], const gv_camera *cams[5])
+{
+    gv_clip_info info;
+    memset(&info, 0, sizeof info);
+    info.width = W, info.height = H;
+    CHECK(gv_clip_alloc(clip, &info) == 0);
+    wall_cameras(cam, cams);
+}
+
 static void add_halves(gv_clip *clip)
 {
     clip->coverage = malloc(3 * PLANE);
@@ -67,16 +77,12 @@ static void test_clip_file(const char *tmp)
  * occluder at depth 1 over the first anchor's columns 0-3 hides target columns 8-11 from it. */
 static void test_plane_by_hand(void)
 {
-    gv_clip_info info;
-    memset(&info, 0, sizeof info);
-    info.width = W, info.height = H;
     gv_clip clip;
-    CHECK(gv_clip_alloc(&clip, &info) == 0);
     gv_camera cam[5];
     const gv_camera *cams[5];
     float *depth[5];
     const float *depths[5];
-    wall_cameras(cam, cams);
+    wall_clip(&clip, cam, cams);
     for (int f = 0; f < 5; f++) {
         depth[f] = malloc(PLANE * sizeof(float));
         for (int p = 0; p < PLANE; p++) depth[f][p] = 2.0f;
@@ -131,14 +137,10 @@ static void test_plane_of_gaussians(void)
         g.opacities[i] = 5;
         g.sh[3 * i] = g.sh[3 * i + 1] = g.sh[3 * i + 2] = 0.5f;
     }
-    gv_clip_info info;
-    memset(&info, 0, sizeof info);
-    info.width = W, info.height = H;
     gv_clip clip;
-    CHECK(gv_clip_alloc(&clip, &info) == 0);
     gv_camera cam[5];
     const gv_camera *cams[5];
-    wall_cameras(cam, cams);
+    wall_clip(&clip, cam, cams);
     CHECK(gv_clip_coverage_gaussians(&clip, &g, cams, GV_COVERAGE_TOLERANCE, GV_COVERAGE_MIN_OPACITY) == 0);
     int wrong = 0;
     for (int f = 1; clip.coverage && f <= 3; f++)

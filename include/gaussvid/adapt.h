@@ -76,6 +76,11 @@ typedef struct {
     double psnr_base, psnr_restored, ssim_base, ssim_restored;
 } gv_gate_measure;
 
+/* The composition a scene checkpoint's gate measured, which restoring with it must use
+ * (adapt_gate.c): its gate_compose, "" in checkpoints from before it was recorded (residual);
+ * fails on an unknown name. */
+int gv_adapt_gate_compose(const gv_scene_adaptation *a, gv_compose *out);
+
 /* The gate's measurement (adapt_gate.c): restores every clip of a dataset folder's latent set
  * with the network, as restore would, and measures the intermediate frames with ground truth,
  * restored and as rendered. Fails when no frame has ground truth. */

@@ -8,6 +8,7 @@
 #include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/dataset.h"
+#include "gaussvid/adapt.h"
 #include "gaussvid/scene_adapt.h"
 
 void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
@@ -126,8 +127,7 @@ int gv_restore_cli_gate(const char *ckpt, int compose_given, gv_restore_options 
                        o->scene ? o->scene : a.scene, o->interval ? o->interval : a.interval);
     /* the gate's evidence is for the composition it measured: restore composes the same way */
     gv_compose gate_compose;
-    if (gv_compose_from_name(a.gate_compose[0] ? a.gate_compose : "residual", &gate_compose))
-        return gv_fail_context("%s: metadata gate_compose", ckpt);
+    if (gv_adapt_gate_compose(&a, &gate_compose)) return gv_fail_context("%s", ckpt);
     if (compose_given && gate_compose != o->compose)
         return gv_fail("%s: its gate measured the %s composition, so restore composes that way: drop --compose %s, or "
                        "adapt again with --compose %s",

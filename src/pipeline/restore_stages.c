@@ -165,7 +165,7 @@ int pipeline_restore(pipeline_run *r)
     int scene_ckpt = rc == 0 ? gv_scene_checkpoint_is(r->restorer) : 0;
     if (scene_ckpt < 0 || (scene_ckpt == 1 && gv_scene_checkpoint_read(r->restorer, &a))) rc = -1;
     /* a scene checkpoint restores as its gate measured: with its composition */
-    if (rc == 0 && scene_ckpt == 1 && a.gate_compose[0] && gv_compose_from_name(a.gate_compose, &ro.compose)) rc = -1;
+    if (rc == 0 && scene_ckpt == 1 && gv_adapt_gate_compose(&a, &ro.compose)) rc = -1;
     ro.keep_renders = scene_ckpt == 1 && !a.gate_open;
     gv_restorer net;
     memset(&net, 0, sizeof net);

@@ -40,6 +40,13 @@ static int measure_clip(const gv_clip *clip, const uint8_t *restored, double sum
     return 0;
 }
 
+int gv_adapt_gate_compose(const gv_scene_adaptation *a, gv_compose *out)
+{
+    if (gv_compose_from_name(a->gate_compose[0] ? a->gate_compose : "residual", out))
+        return gv_fail_context("the scene checkpoint's gate_compose");
+    return 0;
+}
+
 int gv_adapt_measure(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_latent_set *set, const gv_sampler *s,
                      gv_compose compose, gv_gate_measure *out)
 {
