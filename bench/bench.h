@@ -21,7 +21,7 @@ typedef struct {
     int iterations;        /* 8000 (quick: 300) */
     int checkpoint_every;  /* kernel stages are timed every this many iterations (1000) */
     int sparse_adam;
-    int modes;             /* bit 0: MCMC (the default trainer), bit 1: --densify reference */
+    int modes;             /* bit 1 << m for each density control m to run (gv_splat_densify_mode) */
 } gv_bench_splat_options;
 /* Phase and kernel-stage times, Gaussian counts and final quality of a training run. */
 int gv_bench_splat(const gv_bench_splat_options *o, FILE *out);

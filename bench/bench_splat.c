@@ -1,15 +1,15 @@
 /* `gaussvid bench splat`: speed of sparse-view 3DGS training (DESIGN.md section 5).
  * For each scene (the shared courtyard and livingroom by default), trains on every 6th frame
- * for 8000 iterations as the dataset builder does, once with MCMC density control and once
- * with the reference's (the default), one after the other in the same process, and
- * reports for each run:
+ * for 8000 iterations as the dataset builder does, once with each density control asked for
+ * (by default lean, the trainer's default, and the reference's), one after the other in the
+ * same process, and reports for each run:
  * - the median milliseconds per iteration of each phase of the loop (render forward, loss,
  *   backward, densification, Adam) and the seconds for the whole run;
  * - every 1000 iterations, the Gaussian count and the median time of each kernel stage on
  *   the current model (projection, SH colour, binning and sort, rasteriser forward and
  *   backward, projection and SH backward), run on their own;
  * - the held-out and training-view PSNR / SSIM of the final model and the run's peak RSS;
- * then one table of both modes per scene with the ratio of their wall times. */
+ * then one table of every run with the ratio of the reference's wall time to its own. */
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
@@ -280,7 +280,7 @@ static void print_table(const scene_result *r, const gv_bench_splat_options *o, 
             r->peak_rss_kib / 1024.0);
 }
 
-/* Both modes of each scene side by side: the speed-up is a ratio of two runs of one
+/* Every mode of each scene side by side: the speed-up is a ratio of two runs of one
  * invocation, not of two days. results[k] are in (scene, mode) order. */
 static void print_comparison(const scene_result *results, int n, FILE *out)
 {
@@ -355,13 +355,13 @@ int gv_bench_splat(const gv_bench_splat_options *o, FILE *out)
                            base ? base : "../shared/data");
     }
     cJSON *all = o->json ? cJSON_CreateArray() : NULL;
-    const gv_splat_densify_mode modes[2] = {GV_DENSIFY_MCMC, GV_DENSIFY_REFERENCE};
-    scene_result *results = calloc((size_t)2 * n_dirs, sizeof *results);
+    const gv_splat_densify_mode modes[3] = {GV_DENSIFY_LEAN, GV_DENSIFY_REFERENCE, GV_DENSIFY_MCMC};
+    scene_result *results = calloc((size_t)3 * n_dirs, sizeof *results);
     if (!results) return gv_fail("bench splat: out of memory");
     int n_results = 0;
     for (int k = 0; k < n_dirs; k++)
-        for (int m = 0; m < 2; m++) {
-            if (!(o->modes >> m & 1)) continue;
+        for (int m = 0; m < 3; m++) {
+            if (!(o->modes >> modes[m] & 1)) continue;
             scene_result *r = &results[n_results];
             if (bench_scene(dirs[k], o, modes[m], r) != 0) {
                 free(results);
@@ -387,35 +387,49 @@ int gv_bench_splat_command(int argc, char **argv)
 {
     gv_bench_splat_options o = {.interval = 6, .iterations = 8000, .checkpoint_every = 1000};
     int quick = 0;
-    const char *densify = "both";
+    const char *densify = "lean,reference";
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene, "DIR", "one scene (default: the shared courtyard and livingroom)", 0},
         {"json", GV_FLAG_BOOL, &o.json, NULL, "print JSON instead of tables", 0},
         {"quick", GV_FLAG_BOOL, &quick, NULL, "300 iterations (a smoke test)", 0},
         {"iters", GV_FLAG_INT, &o.iterations, "N", "iterations (default 8000)", 0},
         {"interval", GV_FLAG_INT, &o.interval, "N", "train on frames 0, N, 2N, ... (default 6)", 0},
-        {"sparse-adam", GV_FLAG_BOOL, &o.sparse_adam, NULL, "reference mode: Adam on the visible Gaussians only", 0},
-        {"densify", GV_FLAG_STRING, &densify, "MODE", "mcmc, reference or both (default both: the ratio of their times)", 0},
+        {"sparse-adam", GV_FLAG_BOOL, &o.sparse_adam, NULL, "lean and reference: Adam on the visible Gaussians only", 0},
+        {"densify", GV_FLAG_STRING, &densify, "LIST", "density controls to run, of lean, reference, mcmc (default lean,reference)", 0},
     };
     const gv_command_spec spec = {
         "bench splat", NULL, "sparse-view 3DGS training speed: phases, kernel stages, quality",
         "Trains on every 6th frame of each scene for 8000 iterations (the dataset's early stop),\n"
-        "with MCMC density control and with the reference's (the default), and prints for\n"
-        "each run the median ms per iteration of each phase, the Gaussian count and the median\n"
-        "time of each kernel stage every 1000 iterations, the seconds for the run, its peak RSS\n"
-        "and the final held-out PSNR / SSIM; then both modes side by side with the ratio of\n"
-        "their wall times. Results: docs/BENCHMARKS.md.",
+        "once with each density control of --densify (by default lean, the trainer's default,\n"
+        "and the paper's reference), and prints for each run the median ms per iteration of\n"
+        "each phase, the Gaussian count and the median time of each kernel stage every 1000\n"
+        "iterations, the seconds for the run, its peak RSS and the final held-out PSNR / SSIM;\n"
+        "then every run side by side with the ratio of the reference's wall time to its own\n"
+        "(the speed-up). Results: docs/BENCHMARKS.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int rc = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (rc != GV_ARGS_OK) return gv_args_exit_code(rc);
     if (quick) o.iterations = 300, o.checkpoint_every = 100;
-    int mode = strcmp(densify, "both") == 0 ? 2 : gv_splat_densify_mode_parse(densify);
-    if (mode < 0) {
-        fprintf(stderr, "gaussvid bench splat: --densify %s: expected mcmc, reference or both\n",
-                densify);
+    char list[64], *save = NULL;
+    if (strlen(densify) >= sizeof list) {
+        fprintf(stderr, "gaussvid bench splat: --densify: a list of at most %zu characters\n",
+                sizeof list - 1);
         return 2;
     }
-    o.modes = mode == 2 ? 3 : mode == GV_DENSIFY_MCMC ? 1 : 2;
+    snprintf(list, sizeof list, "%s", densify);
+    for (char *name = strtok_r(list, ",", &save); name; name = strtok_r(NULL, ",", &save)) {
+        int mode = gv_splat_densify_mode_parse(name);
+        if (mode < 0) {
+            fprintf(stderr, "gaussvid bench splat: --densify %s: '%s' is not one of "
+                            GV_DENSIFY_MODE_NAMES "\n", densify, name);
+            return 2;
+        }
+        o.modes |= 1 << mode;
+    }
+    if (!o.modes) {
+        fprintf(stderr, "gaussvid bench splat: --densify names no density control\n");
+        return 2;
+    }
     if (o.iterations < 1 || o.interval < 1) {
         fprintf(stderr, "gaussvid bench splat: --iters and --interval must be at least 1\n");
         return 2;

@@ -7,6 +7,7 @@
 #include "check.h"
 #include "gaussvid/core.h"
 #include "gaussvid/dataset.h"
+#include "gaussvid/splat_train.h"
 #include "gaussvid/safetensors.h"
 
 /* ---- sampling ----------------------------------------------------------------------- */
@@ -486,7 +487,8 @@ static void test_manifest(const char *base)
     CHECK(gv_manifest_read(dir, &back, &found) == 0 && found == 0 && back.n_runs == 0);
     gv_dataset_params p;
     gv_dataset_default_params(&p);
-    p.seed = 77, p.sampling = GV_SAMPLING_RANDOM, p.clips_per_run = 2;
+    CHECK(p.densify == GV_DENSIFY_LEAN); /* the trainer's default */
+    p.seed = 77, p.sampling = GV_SAMPLING_RANDOM, p.clips_per_run = 2, p.densify = GV_DENSIFY_MCMC;
     gv_manifest_init(&m, &p);
     gv_manifest_run r1 = {{"zeta", "train", 6}, 2, 12.5}, r2 = {{"alpha", "eval", 8}, 1, 3.0};
     gv_manifest_clip c1[2] = {clip_entry("zeta", 6, 1, "train", 6), clip_entry("zeta", 6, 0, "train", 0)};
@@ -502,7 +504,7 @@ static void test_manifest(const char *base)
     CHECK(gv_manifest_read(dir, &back, &found) == 0 && found == 1);
     CHECK(back.n_runs == 2 && back.n_clips == 2 && back.params.seed == 77 &&
           back.params.sampling == GV_SAMPLING_RANDOM && back.params.clips_per_run == 2 &&
-          back.params.iters == 8000);
+          back.params.iters == 8000 && back.params.densify == GV_DENSIFY_MCMC);
     CHECK(!memcmp(back.clips, m.clips, 2 * sizeof *m.clips));
     CHECK(!strcmp(back.runs[1].id.scene, "zeta") && back.runs[1].n_clips == 1 &&
           back.runs[1].seconds == 13.0 && !strcmp(back.runs[0].id.split, "eval"));
@@ -513,8 +515,16 @@ static void test_manifest(const char *base)
     CHECK(gv_read_file(path, &text, NULL) == 0);
     CHECK(strstr(text, "\"file\":\t\"clips/alpha_n08_000.safetensors\"") != NULL);
     CHECK(strstr(text, "\"record\":\t\"runs/zeta_n06.json\"") != NULL);
+    CHECK(strstr(text, "\"densify\":\t\"mcmc\"") != NULL);
     free(text);
     gv_manifest_free(&m);
+
+    /* A folder from before "densify" was recorded was built with the reference's control. */
+    write_text(path, "{\"format\": \"gaussvid.clips\", \"format_version\": 1, \"params\": {\"iters\": 10, "
+                     "\"anchor_gap\": 1, \"clips_per_run\": 1, \"seed\": 0, \"downscale\": 1, \"sampling\": "
+                     "\"uniform\"}, \"runs\": [], \"clips\": []}");
+    CHECK(gv_manifest_read(dir, &back, &found) == 0 && back.params.densify == GV_DENSIFY_REFERENCE);
+    gv_manifest_free(&back);
 
     struct { const char *text, *needle; } bad[] = {
         {"{\"format\": \"gaussvid.clips\"", "not a JSON object"},
@@ -545,6 +555,9 @@ static void test_manifest(const char *base)
          "\"uniform\"}, \"runs\": [{\"scene\": \"a\", \"n\": 6, \"split\": \"train\", \"clips\": 1}], "
          "\"clips\": [{\"file\": \"clips/a.safetensors\", \"scene\": \"a\", \"n\": 6, \"split\": "
          "\"train\", \"frame_indices\": [0, 2, 3, 4]}]}", "frame_indices"},
+        {"{\"format\": \"gaussvid.clips\", \"format_version\": 1, \"params\": {\"iters\": 10, "
+         "\"anchor_gap\": 1, \"clips_per_run\": 1, \"seed\": 0, \"downscale\": 1, \"sampling\": "
+         "\"uniform\", \"densify\": \"dense\"}, \"runs\": [], \"clips\": []}", "densify \"dense\""},
     };
     for (int i = 0; i < (int)(sizeof bad / sizeof bad[0]); i++) {
         write_text(path, bad[i].text);

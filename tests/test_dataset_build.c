@@ -10,6 +10,7 @@
 #include "check.h"
 #include "gaussvid/core.h"
 #include "gaussvid/dataset.h"
+#include "gaussvid/splat_train.h"
 #include "gaussvid/image.h"
 #include "gaussvid/scene.h"
 #include "gaussvid/synth.h"
@@ -62,7 +63,8 @@ static void make_scene(const char *dir, int seed)
 
 typedef struct { int trains, renders, fail_render_at; } fake_state;
 
-static int fake_train(void *ctx, const gv_scene *scene, int interval, int iters, uint64_t seed, void **model)
+static int fake_train(void *ctx, const gv_scene *scene, int interval, int iters, int densify, uint64_t seed,
+                      void **model)
 {
     fake_state *st = ctx;
     st->trains++;
@@ -307,6 +309,9 @@ static void test_build_and_resume(const char *base)
     gv_dataset_build_options o3 = o;
     o3.params.iters = 100;
     CHECK_FAILS_WITH(build(&o3, &r), "--iters 8000");
+    o3 = o;
+    o3.params.densify = GV_DENSIFY_REFERENCE;
+    CHECK_FAILS_WITH(build(&o3, &r), "--densify lean"); /* what the folder was built with */
     o3 = o;
     o3.n_eval_scenes = 0;
     CHECK_FAILS_WITH(build(&o3, &r), "beta n=6 was built in the eval split");

@@ -12,6 +12,7 @@
 #include "gaussvid/internal_pairs.h"
 #include "gaussvid/safetensors.h"
 #include "gaussvid/scene.h"
+#include "gaussvid/splat_train.h"
 
 #define FRAMES 20
 #define W 16
@@ -59,14 +60,17 @@ typedef struct {
     int trains;
     int trained_on[2][FRAMES]; /* per training: 1 for the scene frames it trained on */
     int intervals[2];
+    int densify;               /* the density control of the last training */
 } fake_state;
 
 /* The scene frame a camera shows, from its image name. */
 static int frame_of(const gv_camera *c) { return atoi(c->name + strlen("frame_")); }
 
-static int fake_train(void *ctx, const gv_scene *scene, int interval, int iters, uint64_t seed, void **model)
+static int fake_train(void *ctx, const gv_scene *scene, int interval, int iters, int densify, uint64_t seed,
+                      void **model)
 {
     fake_state *st = ctx;
+    st->densify = densify;
     if (st->trains < 2) {
         st->intervals[st->trains] = interval;
         for (int f = 0; f < scene->n_frames; f += interval) st->trained_on[st->trains][frame_of(&scene->cameras[f])] = 1;
@@ -216,6 +220,7 @@ static void check_clips(const char *out, const char *scene_dir)
     CHECK(gv_manifest_read(out, &m, &found) == 0 && found);
     CHECK(m.n_runs == 1 && m.runs[0].id.n == 2 * N && !strcmp(m.runs[0].id.scene, "room") && !strcmp(m.runs[0].id.split, "train"));
     CHECK(m.n_clips == 5 && m.params.iters == 7 && m.params.seed == 4 && m.params.clips_per_run == 5);
+    CHECK(m.params.densify == GV_DENSIFY_MCMC); /* recorded as asked (not the default) */
     gv_internal_clip plan[FRAMES];
     int count;
     CHECK(gv_internal_plan(FRAMES, N, plan, &count) == 0 && count == 5);
@@ -267,12 +272,14 @@ static void test_build(const char *base)
             CHECK(remove(path) == 0);
         }
     snprintf(out, sizeof out, "%s/pairs", base);
-    gv_internal_options o = {N, 7, 4, &fake, out, 0, 0};
+    gv_internal_options o = {.interval = N, .iters = 7, .densify = GV_DENSIFY_MCMC, .seed = 4, .simulator = &fake,
+                             .out_dir = out};
     gv_internal_result r;
     memset(&state, 0, sizeof state);
     CHECK(gv_internal_build(&scene, &o, &r) == 0);
     CHECK(r.clips == 5 && r.subsets_trained == 2 && state.trains == 2);
     CHECK(state.intervals[0] == 2 * N && state.intervals[1] == 2 * N);
+    CHECK(state.densify == GV_DENSIFY_MCMC); /* passed through to the simulator */
     for (int f = 0; f < FRAMES; f++) { /* every other training view, once per offset */
         CHECK(state.trained_on[0][f] == (f % (2 * N) == 0));
         CHECK(state.trained_on[1][f] == (f % (2 * N) == N));
@@ -303,6 +310,9 @@ static void test_build(const char *base)
     gv_internal_options other = o;
     other.iters = 8;
     CHECK_FAILS_WITH(gv_internal_build(&scene, &other, &r), "holds other clips than the internal pairs of room");
+    other = o;
+    other.densify = GV_DENSIFY_REFERENCE;
+    CHECK_FAILS_WITH(gv_internal_build(&scene, &other, &r), "density control reference");
     other = o;
     other.interval = 5;
     char other_out[4400];
@@ -335,7 +345,8 @@ static void test_build_harm(const char *base)
     gv_scene scene;
     CHECK(gv_scene_load(scene_dir, NULL, &scene) == 0);
     snprintf(out, sizeof out, "%s/harm", base);
-    gv_internal_options o = {N, 7, 4, &fake, out, 1, 0};
+    gv_internal_options o = {.interval = N, .iters = 7, .densify = GV_DENSIFY_MCMC, .seed = 4, .simulator = &fake,
+                             .out_dir = out, .full_model = 1};
     gv_internal_result r;
     memset(&state, 0, sizeof state);
     CHECK(gv_internal_build(&scene, &o, &r) == 0);

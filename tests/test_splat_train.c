@@ -181,7 +181,6 @@ static void test_training_mcmc(const tiny_scene *s)
 {
     gv_splat_train_options o;
     short_options(&o, 200);
-    CHECK(o.densify_mode == GV_DENSIFY_REFERENCE); /* the default */
     o.densify_mode = GV_DENSIFY_MCMC;
     gv_splat_trainer t;
     CHECK(gv_splat_trainer_init(&t, &o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N,
@@ -233,6 +232,66 @@ static void test_deterministic(const tiny_scene *s, gv_splat_densify_mode mode)
     gv_gaussians_free(&a[0]), gv_gaussians_free(&a[1]);
 }
 
+/* Trains 200 iterations of the short schedule; the densification totals into *counts. */
+static void train_short(const tiny_scene *s, const gv_splat_train_options *o, gv_gaussians *out,
+                        gv_splat_densify_counts *counts)
+{
+    gv_splat_trainer t;
+    int ok = gv_splat_trainer_init(&t, o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N, s->points, NULL);
+    for (int it = 0; it < o->iterations && ok == 0; it++) ok = gv_splat_trainer_step(&t);
+    CHECK(ok == 0);
+    *out = t.params, *counts = t.densified;
+    memset(&t.params, 0, sizeof t.params);
+    gv_splat_trainer_free(&t);
+}
+
+/* 1 when two models hold the same rows bit for bit. */
+static int same_model(const gv_gaussians *a, const gv_gaussians *b)
+{
+    if (a->n != b->n || a->sh_degree != b->sh_degree) return 0;
+    size_t n = (size_t)a->n, k = (size_t)3 * gv_sh_coefficient_count(a->sh_degree);
+    return !memcmp(a->means, b->means, 3 * n * sizeof(float)) && !memcmp(a->sh, b->sh, k * n * sizeof(float)) &&
+           !memcmp(a->opacities, b->opacities, n * sizeof(float)) &&
+           !memcmp(a->scales, b->scales, 3 * n * sizeof(float)) &&
+           !memcmp(a->rotations, b->rotations, 4 * n * sizeof(float));
+}
+
+/* lean is the default and is the reference's control at twice its threshold, nothing else:
+ * the same model, byte for byte, as --densify reference --grad-threshold 0.0004; the
+ * reference's own threshold clones and splits more. */
+static void test_lean(const tiny_scene *s)
+{
+    gv_splat_train_options lean, ref, ref_doubled;
+    short_options(&lean, 200);
+    CHECK(lean.densify_mode == GV_DENSIFY_LEAN && lean.densify.grad_threshold == 0);
+    CHECK(gv_splat_densify_threshold(&lean) == 0.0004);
+    ref = lean;
+    ref.densify_mode = GV_DENSIFY_REFERENCE;
+    CHECK(gv_splat_densify_threshold(&ref) == 0.0002);
+    ref_doubled = ref;
+    ref_doubled.densify.grad_threshold = 0.0004;
+    CHECK(gv_splat_densify_threshold(&ref_doubled) == 0.0004);
+    lean.densify.grad_threshold = 0.0003; /* set: it wins over the mode's */
+    CHECK(gv_splat_densify_threshold(&lean) == 0.0003);
+    lean.densify.grad_threshold = 0;
+    CHECK(!strcmp(gv_splat_densify_mode_name(GV_DENSIFY_LEAN), "lean") &&
+          gv_splat_densify_mode_parse("lean") == GV_DENSIFY_LEAN &&
+          gv_splat_densify_mode_parse("reference") == GV_DENSIFY_REFERENCE &&
+          gv_splat_densify_mode_parse("mcmc") == GV_DENSIFY_MCMC && gv_splat_densify_mode_parse("Lean") == -1);
+
+    gv_gaussians a, b, c;
+    gv_splat_densify_counts ca, cb, cc;
+    train_short(s, &lean, &a, &ca);
+    train_short(s, &ref_doubled, &b, &cb);
+    train_short(s, &ref, &c, &cc);
+    printf("tiny scene, 200 iterations: lean %d Gaussians (%d cloned, %d split), reference %d (%d cloned, %d split)\n",
+           a.n, ca.cloned, ca.split, c.n, cc.cloned, cc.split);
+    CHECK(same_model(&a, &b));
+    CHECK(ca.cloned == cb.cloned && ca.split == cb.split && ca.pruned == cb.pruned);
+    CHECK(cc.cloned + cc.split > ca.cloned + ca.split);
+    gv_gaussians_free(&a), gv_gaussians_free(&b), gv_gaussians_free(&c);
+}
+
 static void test_random_init(const tiny_scene *s)
 {
     gv_splat_train_options o;
@@ -260,17 +319,6 @@ static void test_bad_inputs(tiny_scene *s)
     s->cams[2].width = WIDTH + 1;
     CHECK_FAILS_WITH(gv_splat_trainer_init(&t, &o, VIEWS, s->cams, s->images, 1, TRUE_N, s->points, NULL), "view2.png");
     s->cams[2].width = WIDTH;
-}
-
-/* 1 when two models hold the same rows bit for bit. */
-static int same_model(const gv_gaussians *a, const gv_gaussians *b)
-{
-    if (a->n != b->n || a->sh_degree != b->sh_degree) return 0;
-    size_t n = (size_t)a->n, k = (size_t)3 * gv_sh_coefficient_count(a->sh_degree);
-    return !memcmp(a->means, b->means, 3 * n * sizeof(float)) && !memcmp(a->sh, b->sh, k * n * sizeof(float)) &&
-           !memcmp(a->opacities, b->opacities, n * sizeof(float)) &&
-           !memcmp(a->scales, b->scales, 3 * n * sizeof(float)) &&
-           !memcmp(a->rotations, b->rotations, 4 * n * sizeof(float));
 }
 
 /* Refinement (docs/RECONSTRUCT.md): training from a given model starts from an exact copy at
@@ -328,7 +376,9 @@ int main(void)
     omp_set_num_threads(1);
     test_training_converges(&s);
     test_training_mcmc(&s);
+    test_lean(&s);
     omp_set_num_threads(threads < 2 ? 2 : threads);
+    test_deterministic(&s, GV_DENSIFY_LEAN);
     test_deterministic(&s, GV_DENSIFY_REFERENCE);
     test_deterministic(&s, GV_DENSIFY_MCMC);
     test_random_init(&s);

@@ -32,6 +32,8 @@ typedef struct {
     const char *work_dir;            /* NULL: out + ".work" */
     int downscale;                   /* scene images: 1, 2, 4, 8 (as splat train) */
     int iters;                       /* the artifact simulator's iterations per subset */
+    int densify;                     /* its density control (gv_splat_densify_mode): as the
+                                        user's sparse model was trained */
     const gv_artifact_simulator *simulator; /* NULL: sparse 3DGS */
     int hold_every;                  /* internal clips 1, 1 + K, 1 + 2K, ... are held back */
     gv_train_options train;          /* steps, batch, lr and its schedule, t_max, crop, seed, val_every,

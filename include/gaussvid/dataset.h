@@ -158,6 +158,7 @@ typedef struct {
     int iters, anchor_gap, clips_per_run, downscale;
     gv_clip_sampling sampling;
     uint64_t seed;
+    int densify;                     /* the simulator's density control (gv_splat_densify_mode) */
 } gv_dataset_params;
 
 typedef struct {
@@ -228,9 +229,10 @@ int gv_run_record_read(const char *path, gv_run_record *r);
  * 3DGS stopped early (gv_artifact_3dgs, artifact_3dgs.c); tests plug in cheap ones. */
 typedef struct {
     const char *name;
-    /* Trains on the interval's training views; *model belongs to the simulator. */
-    int (*train)(void *ctx, const gv_scene *scene, int interval, int iters, uint64_t seed,
-                 void **model);
+    /* Trains on the interval's training views, stopped at iters, with density control
+     * densify (a gv_splat_densify_mode); *model belongs to the simulator. */
+    int (*train)(void *ctx, const gv_scene *scene, int interval, int iters, int densify,
+                 uint64_t seed, void **model);
     /* Renders frame `frame` of the scene into out (newly allocated, RGB, camera size). */
     int (*render)(void *ctx, void *model, const gv_scene *scene, int frame, gv_image *out);
     void (*free_model)(void *ctx, void *model);
@@ -246,7 +248,7 @@ typedef struct {
 int gv_clip_coverage_simulated(gv_clip *clip, const gv_artifact_simulator *sim, void *model, const gv_scene *scene,
                                const int frames[GV_CLIP_FRAMES]);
 
-/* Sparse 3DGS (gv_splat_train with the reference defaults, stopped at --iters), rendered
+/* Sparse 3DGS (gv_splat_train's defaults, stopped at --iters), rendered
  * with every SH degree over the training background and quantised to 8 bits; its depth is
  * gv_coverage_depth's at the default minimum opacity, so its clips carry the coverage plane. */
 extern const gv_artifact_simulator gv_artifact_3dgs;
@@ -272,7 +274,7 @@ typedef struct {
 } gv_dataset_build_result;
 
 /* The defaults: 8000 iterations (paper 3.2), 1 clip per run, anchor gap 1, uniform, seed 0,
- * no downscale. */
+ * no downscale, the trainer's default density control. */
 void gv_dataset_default_params(gv_dataset_params *p);
 /* The scene name of a scene folder: its last path component. */
 int gv_scene_name_of(const char *dir, char *out, size_t size);

@@ -50,6 +50,7 @@ int gv_internal_plan(int n_frames, int interval, gv_internal_clip *clips, int *c
 typedef struct {
     int interval;                    /* n */
     int iters;                       /* the simulator's iterations per subset */
+    int densify;                     /* its density control (gv_splat_densify_mode) */
     uint64_t seed;                   /* subset p trains with gv_run_seed(seed, scene, 2n) ^ (p * golden) */
     const gv_artifact_simulator *simulator; /* NULL: sparse 3DGS (gv_artifact_3dgs) */
     const char *out_dir;             /* the dataset folder written */

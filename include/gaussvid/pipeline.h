@@ -39,6 +39,7 @@ typedef struct {
     const char *ckpt;            /* the restorer: a cross-scene checkpoint (or a scene checkpoint) */
     int downscale;               /* scene images: 1, 2, 4, 8 */
     int iters;                   /* sparse 3DGS iterations */
+    int densify;                 /* its density control (gv_splat_densify_mode) */
     int refine_iters;            /* refinement iterations */
     double refine_weight;        /* the restored frames' loss weight (training views: 1) */
     int adapt;                   /* run the adapt stage and restore with its scene checkpoint */

@@ -108,7 +108,8 @@ typedef struct {
 } gv_splat_densify_stats;
 
 typedef struct {
-    double grad_threshold;   /* 0.0002: clone or split when the mean statistic is >= this */
+    double grad_threshold;   /* clone or split when the mean statistic is >= this; 0: the
+                              * mode's (gv_splat_densify_threshold) */
     double percent_dense;    /* 0.01: clone when max scale <= this x extent, else split */
     double min_opacity;      /* 0.005: prune below */
     double extent;           /* the scene extent */
@@ -180,11 +181,16 @@ typedef struct {
     int opacity_reset_interval; /* 3000 (while < densify_until) */
 } gv_splat_schedule;
 
-/* How the model grows: the reference's clone / split / prune with opacity resets (the
- * default), or MCMC with a budget that follows the training pixels: 2.6x faster, better on
- * some scenes and worse on others (docs/SPLAT_TRAINING.md, "Density control"). */
-typedef enum { GV_DENSIFY_MCMC, GV_DENSIFY_REFERENCE } gv_splat_densify_mode;
-/* "mcmc" or "reference"; -1 for anything else. */
+/* How the model grows (docs/SPLAT_TRAINING.md, "Density control"):
+ * - lean (the default): the reference's clone / split / prune with opacity resets, with the
+ *   gradient threshold doubled (0.0004): the reference's threshold was set for images of
+ *   about a megapixel and grows a third of a Gaussian per training pixel at 256x144;
+ * - reference: the paper's (threshold 0.0002), for fidelity to its artifact simulation;
+ * - mcmc: a budget that follows the training pixels, relocation of dead Gaussians. */
+typedef enum { GV_DENSIFY_MCMC, GV_DENSIFY_REFERENCE, GV_DENSIFY_LEAN } gv_splat_densify_mode;
+#define GV_DENSIFY_DEFAULT GV_DENSIFY_LEAN
+#define GV_DENSIFY_MODE_NAMES "lean, reference or mcmc"
+/* "lean", "reference" or "mcmc"; -1 for anything else. */
 int gv_splat_densify_mode_parse(const char *name);
 const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode);
 
@@ -199,7 +205,7 @@ typedef struct {
     gv_splat_adam_config adam;
     gv_splat_schedule schedule;
     gv_splat_densify_mode densify_mode;
-    gv_splat_densify_params densify; /* reference mode; extent is set by the trainer */
+    gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
     double initial_opacity;     /* 0: the mode's own (reference 0.1, MCMC 0.5) */
@@ -233,13 +239,16 @@ typedef struct {
     gv_rng view_rng, bg_rng, split_rng;
     int iteration, active_degree;
     double loss, ema_loss;      /* last loss; 0.4 last + 0.6 previous (train.py) */
-    gv_splat_densify_counts densified; /* totals (reference mode) */
+    gv_splat_densify_counts densified; /* totals (lean and reference) */
     long relocated, added;      /* totals (MCMC mode) */
     double seconds[GV_PHASES];  /* time spent per phase */
 } gv_splat_trainer;
 
-/* The reference defaults (sections 13-14) and the values above. */
+/* The reference's values (sections 13-14) and the values above; density control lean. */
 void gv_splat_train_defaults(gv_splat_train_options *opt);
+/* The gradient threshold a run uses: densify.grad_threshold when set, else the mode's own
+ * (lean 0.0004, reference 0.0002; MCMC does not use it). */
+double gv_splat_densify_threshold(const gv_splat_train_options *opt);
 /* Sets up training on n_views cameras and their RGB images (kept by the caller until
  * gv_splat_trainer_free), initialised from the points (random points when n_points is 0).
  * extent is the 3DGS scene extent of the training cameras. */

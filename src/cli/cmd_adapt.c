@@ -7,6 +7,7 @@
 #include "cli/commands.h"
 #include "gaussvid/adapt.h"
 #include "gaussvid/core.h"
+#include "gaussvid/splat_train.h"
 
 /* Why the gate is closed, when it is. */
 static const char *closed_because(const gv_scene_adaptation *a)
@@ -45,7 +46,7 @@ int cmd_adapt(int argc, char **argv)
     gv_adapt_options o;
     gv_adapt_defaults(&o);
     const char *schedule = gv_lr_kind_name(o.train.lr_schedule), *crop = NULL, *sampler = GV_SAMPLER_DEFAULT,
-               *compose = gv_compose_name(o.compose), *early_stop = NULL;
+               *compose = gv_compose_name(o.compose), *early_stop = NULL, *densify = NULL;
     int steps = (int)o.train.steps, val_every = (int)o.train.val_every, stop_after = 0, seed = 0;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (COLMAP sparse/0 or transforms.json)", 1},
@@ -60,6 +61,8 @@ int cmd_adapt(int argc, char **argv)
          "output); docs/TRAINING.md", 0},
         {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's", 0},
         {"iters", GV_FLAG_INT, &o.iters, "N", "3DGS iterations of each internal subset model (default 8000, as dataset build)", 0},
+        {"densify", GV_FLAG_STRING, &densify, "MODE",
+         "their density control, as the scene's sparse model was trained: lean (default), reference or mcmc", 0},
         {"downscale", GV_FLAG_INT, &o.downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
         {"hold-every", GV_FLAG_INT, &o.hold_every, "K", "hold back internal clips 1, 1 + K, 1 + 2K, ... for validation (default 3)", 0},
         {"steps", GV_FLAG_INT, &steps, "N", "fine-tuning steps (default 300)", 0},
@@ -118,6 +121,10 @@ int cmd_adapt(int argc, char **argv)
         return 2;
     }
     if (early_stop) o.early_stop_psnr = !strcmp(early_stop, "psnr");
+    if (densify && (o.densify = gv_splat_densify_mode_parse(densify)) < 0) {
+        fprintf(stderr, "gaussvid adapt: --densify %s: expected " GV_DENSIFY_MODE_NAMES "\n", densify);
+        return 2;
+    }
     if (crop && gv_parse_crop("adapt", crop, &o.train.crop_h, &o.train.crop_w)) return 2;
     o.train.steps = steps, o.train.val_every = val_every, o.train.stop_after = stop_after;
     o.train.seed = (uint64_t)seed;

@@ -5,6 +5,7 @@
 #include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/dataset.h"
+#include "gaussvid/splat_train.h"
 
 static int usage(const char *message)
 {
@@ -14,7 +15,7 @@ static int usage(const char *message)
 
 int cmd_dataset_build(int argc, char **argv)
 {
-    const char *intervals_text = "6:26:2", *sampling = "uniform", *out = NULL;
+    const char *intervals_text = "6:26:2", *sampling = "uniform", *out = NULL, *densify = NULL;
     gv_flag_list scenes = {.n = 0}, eval = {.n = 0};
     gv_dataset_params p;
     gv_dataset_default_params(&p);
@@ -24,6 +25,7 @@ int cmd_dataset_build(int argc, char **argv)
         {"out", GV_FLAG_STRING, &out, "DIR", "the dataset folder (created; an existing one is resumed)", 1},
         {"intervals", GV_FLAG_STRING, &intervals_text, "A:B:S", "intervals n: \"a:b:s\", \"a:b\", \"n\", comma-separated (default 6:26:2)", 0},
         {"iters", GV_FLAG_INT, &p.iters, "N", "3DGS iterations, the early stop (default 8000, the paper's)", 0},
+        {"densify", GV_FLAG_STRING, &densify, "MODE", "3DGS density control: lean (default), reference (the paper's) or mcmc", 0},
         {"clips-per-run", GV_FLAG_INT, &p.clips_per_run, "K", "clips per (scene, n) (default 4)", 0},
         {"anchor-gap", GV_FLAG_INT, &p.anchor_gap, "G", "anchors G training views apart, G*n frames (default 1: consecutive)", 0},
         {"sampling", GV_FLAG_STRING, &sampling, "S", "intermediate frames: uniform (default), random or released", 0},
@@ -36,6 +38,7 @@ int cmd_dataset_build(int argc, char **argv)
         "dataset build", NULL, "simulate sparse-view artifacts and sample clean-corrupted-clean clips",
         "For every scene and interval n: 3DGS trained on frames 0, n, 2n, ... and stopped at\n"
         "--iters renders every held-out frame (its PSNR/SSIM go to runs/<scene>_n<n>.json);\n"
+        "--densify reference trains as the paper does (splat train --help says how they differ).\n"
         "K clips are sampled: two training views G*n apart as clean anchors, three held-out\n"
         "frames between them (uniform: round(s + j*G*n/4), j = 1, 2, 3), each clip one\n"
         "safetensors file under clips/, all listed in manifest.json. Runs already in the\n"
@@ -50,6 +53,8 @@ int cmd_dataset_build(int argc, char **argv)
     int intervals[GV_MAX_INTERVALS], n_intervals;
     int bad = gv_parse_intervals(intervals_text, intervals, GV_MAX_INTERVALS, &n_intervals) != 0 ||
               gv_sampling_from_name(sampling, &p.sampling) != 0;
+    if (!bad && densify && (p.densify = gv_splat_densify_mode_parse(densify)) < 0)
+        bad = gv_fail("--densify %s: expected " GV_DENSIFY_MODE_NAMES, densify) != 0;
     if (!bad && seed < 0) bad = gv_fail("--seed %d: must be non-negative", seed) != 0;
     if (!bad && (jobs < 1 || jobs > 256)) bad = gv_fail("--jobs %d: must be in 1..256", jobs) != 0;
     if (bad) return usage(gv_last_error());

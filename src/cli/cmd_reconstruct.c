@@ -9,6 +9,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/pipeline.h"
 #include "gaussvid/report.h"
+#include "gaussvid/splat_train.h"
 
 #define DEFAULT_CKPT "models/gaussvid-small.safetensors"
 
@@ -43,7 +44,7 @@ int cmd_reconstruct(int argc, char **argv)
     gv_reconstruct_options o;
     gv_reconstruct_defaults(&o);
     o.ckpt = DEFAULT_CKPT;
-    const char *intervals = NULL;
+    const char *intervals = NULL, *densify = NULL;
     int seed = 0, adapt_steps = (int)o.adapt_options.train.steps;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (images/ with sparse/0 or transforms.json; gaussvid scene colmap makes one from photos)", 1},
@@ -51,6 +52,7 @@ int cmd_reconstruct(int argc, char **argv)
         {"out", GV_FLAG_STRING, &o.out_dir, "DIR", "where everything goes: metrics.json and nN/ per interval (docs/RECONSTRUCT.md)", 1},
         {"ckpt", GV_FLAG_STRING, &o.ckpt, "FILE", "the restorer (default " DEFAULT_CKPT ")", 0},
         {"iters", GV_FLAG_INT, &o.iters, "N", "sparse 3DGS iterations (default 8000)", 0},
+        {"densify", GV_FLAG_STRING, &densify, "MODE", "its density control: lean (default), reference (the paper's) or mcmc", 0},
         {"refine-iters", GV_FLAG_INT, &o.refine_iters, "N", "refinement iterations (default 1000)", 0},
         {"refine-weight", GV_FLAG_DOUBLE, &o.refine_weight, "W", "loss weight of the restored frames in the refinement, in (0, 1]; training views weigh 1 (default 0.3)", 0},
         {"adapt", GV_FLAG_BOOL, &o.adapt, NULL, "adapt the restorer to the scene first (gaussvid adapt, docs/ADAPT.md) and restore with the result", 0},
@@ -79,6 +81,8 @@ int cmd_reconstruct(int argc, char **argv)
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
     if (parse_intervals(intervals, &o) || (seed < 0 && gv_fail("--seed %d: must not be negative", seed) != 0) ||
         (adapt_steps < 1 && gv_fail("--adapt-steps %d: must be positive", adapt_steps) != 0) ||
+        (densify && (o.densify = gv_splat_densify_mode_parse(densify)) < 0 &&
+         gv_fail("--densify %s: expected " GV_DENSIFY_MODE_NAMES, densify) != 0) ||
         (o.downscale != 1 && o.downscale != 2 && o.downscale != 4 && o.downscale != 8 &&
          gv_fail("--downscale %d: expected 1, 2, 4 or 8", o.downscale) != 0)) {
         fprintf(stderr, "gaussvid reconstruct: %s (see 'gaussvid reconstruct --help')\n", gv_last_error());

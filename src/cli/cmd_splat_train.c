@@ -12,8 +12,8 @@ int cmd_splat_train(int argc, char **argv)
 {
     const char *scene_dir = NULL, *out = NULL;
     int interval = 1, iterations = 30000, downscale = 1, sh_degree = 3, seed = 0;
-    double grad_threshold = 0.0002, per_pixel = 0, regularizer = 0.01;
-    const char *densify = "reference";
+    double grad_threshold = 0, per_pixel = 0, regularizer = 0.01;
+    const char *densify = "lean";
     int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &scene_dir, "DIR", "scene folder (COLMAP sparse/0 or transforms.json)", 1},
@@ -26,20 +26,22 @@ int cmd_splat_train(int argc, char **argv)
         {"white-bg", GV_FLAG_BOOL, &white_bg, NULL, "white background (default black)", 0},
         {"random-bg", GV_FLAG_BOOL, &random_bg, NULL, "a random background colour per iteration", 0},
         {"sparse-adam", GV_FLAG_BOOL, &sparse_adam, NULL,
-         "reference mode: Adam on the visible Gaussians only (default: all; mcmc steps all)", 0},
-        {"densify", GV_FLAG_STRING, &densify, "MODE", "reference (default) or mcmc (a budget that follows the data)", 0},
+         "lean and reference: Adam on the visible Gaussians only (default: all; mcmc steps all)", 0},
+        {"densify", GV_FLAG_STRING, &densify, "MODE", "lean (default), reference or mcmc", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
         {"regularizer", GV_FLAG_DOUBLE, &regularizer, "X", "mcmc: weight of the opacity and scale L1 terms (default 0.01)", 0},
-        {"grad-threshold", GV_FLAG_DOUBLE, &grad_threshold, "X", "reference: densify threshold (default 0.0002)", 0},
+        {"grad-threshold", GV_FLAG_DOUBLE, &grad_threshold, "X", "lean and reference: densify threshold (default 0.0004 and 0.0002)", 0},
     };
     const gv_command_spec spec = {
         "splat train", NULL, "train 3D Gaussian Splatting on the sparse split of a scene",
         "Trains on frames 0, N, 2N, ... (N = --interval): initialisation from the scene's\n"
         "points, Adam with the reference learning rates, one more SH degree every 1000\n"
         "iterations, loss 0.8 L1 + 0.2 (1 - SSIM). Density control (--densify):\n"
-        "  reference  (default) the paper's: clone/split/prune from iteration 500 to 15000\n"
-        "             every 100, opacity reset every 3000\n"
+        "  lean       (default) the reference's at twice its gradient threshold: a third of\n"
+        "             the Gaussians at 256x144, about half the time, the same held-out PSNR\n"
+        "  reference  the paper's: clone/split/prune from iteration 500 to 15000 every 100,\n"
+        "             opacity reset every 3000 (the paper's artifact simulation)\n"
         "  mcmc       a budget of --per-pixel Gaussians per training pixel; transparent\n"
         "             Gaussians are relocated onto opaque ones, the count grows by 5 % every\n"
         "             100 iterations from 500 until the budget (3DGS as MCMC): about 2.6x\n"
@@ -67,19 +69,19 @@ int cmd_splat_train(int argc, char **argv)
     opt.sparse_adam = sparse_adam;
     int mode = gv_splat_densify_mode_parse(densify);
     if (mode < 0) {
-        fprintf(stderr, "gaussvid splat train: --densify %s: expected mcmc or reference\n", densify);
+        fprintf(stderr, "gaussvid splat train: --densify %s: expected " GV_DENSIFY_MODE_NAMES "\n", densify);
         return 2;
     }
-    if (max_gaussians < 0 || per_pixel < 0 || regularizer < 0 || !(grad_threshold > 0)) {
-        fprintf(stderr, "gaussvid splat train: --max-gaussians, --per-pixel and --regularizer must be non-negative, "
-                        "--grad-threshold positive\n");
+    if (max_gaussians < 0 || per_pixel < 0 || regularizer < 0 || grad_threshold < 0) {
+        fprintf(stderr, "gaussvid splat train: --max-gaussians, --per-pixel, --regularizer and --grad-threshold "
+                        "must be non-negative\n");
         return 2;
     }
     opt.densify_mode = (gv_splat_densify_mode)mode;
     opt.mcmc.cap = max_gaussians;
     opt.mcmc.opacity_reg = opt.mcmc.scale_reg = regularizer;
     if (per_pixel > 0) opt.gaussians_per_pixel = per_pixel;
-    opt.densify.grad_threshold = grad_threshold;
+    opt.densify.grad_threshold = grad_threshold; /* 0: the mode's */
     opt.progress_label = "train";
     gv_scene_options so = {.downscale = downscale, .white_background = white_bg};
     gv_scene scene;

@@ -17,8 +17,8 @@ typedef struct {
     size_t pixel_capacity;
 } artifact_model;
 
-static int train_3dgs(void *ctx, const gv_scene *scene, int interval, int iters, uint64_t seed,
-                      void **model)
+static int train_3dgs(void *ctx, const gv_scene *scene, int interval, int iters, int densify,
+                      uint64_t seed, void **model)
 {
     (void)ctx;
     *model = NULL;
@@ -27,6 +27,7 @@ static int train_3dgs(void *ctx, const gv_scene *scene, int interval, int iters,
     gv_splat_train_options opt;
     gv_splat_train_defaults(&opt);
     opt.iterations = iters;
+    opt.densify_mode = (gv_splat_densify_mode)densify;
     opt.seed = seed;
     opt.progress_label = "3DGS";
     if (scene->white_background) opt.background = GV_BG_WHITE;

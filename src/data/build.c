@@ -11,6 +11,7 @@
 
 #include "data/build_internal.h"
 #include "gaussvid/dist.h"
+#include "gaussvid/splat_train.h"
 
 void gv_dataset_default_params(gv_dataset_params *p)
 {
@@ -21,6 +22,7 @@ void gv_dataset_default_params(gv_dataset_params *p)
     p->downscale = 1;
     p->sampling = GV_SAMPLING_UNIFORM;
     p->seed = 0;
+    p->densify = GV_DENSIFY_DEFAULT;
 }
 
 uint64_t gv_run_seed(uint64_t seed, const char *scene, int n)
@@ -64,19 +66,23 @@ static int check_params(const gv_dataset_params *p)
     if (p->downscale != 1 && p->downscale != 2 && p->downscale != 4 && p->downscale != 8)
         return gv_fail("downscale %d: expected 1, 2, 4 or 8", p->downscale);
     if ((unsigned)p->sampling > GV_SAMPLING_RELEASED) return gv_fail("unknown sampling %d", (int)p->sampling);
+    if (p->densify != GV_DENSIFY_LEAN && p->densify != GV_DENSIFY_REFERENCE && p->densify != GV_DENSIFY_MCMC)
+        return gv_fail("unknown density control %d", p->densify);
     return 0;
 }
 
 /* The options of a folder's existing runs must be this build's: one dataset, one recipe. */
 static int same_params(const char *dir, const gv_dataset_params *old, const gv_dataset_params *now)
 {
-    char a[200], b[200];
-    snprintf(a, sizeof a, "--iters %d --anchor-gap %d --sampling %s --clips-per-run %d --seed %llu "
-             "--downscale %d", old->iters, old->anchor_gap, gv_sampling_name(old->sampling),
-             old->clips_per_run, (unsigned long long)old->seed, old->downscale);
-    snprintf(b, sizeof b, "--iters %d --anchor-gap %d --sampling %s --clips-per-run %d --seed %llu "
-             "--downscale %d", now->iters, now->anchor_gap, gv_sampling_name(now->sampling),
-             now->clips_per_run, (unsigned long long)now->seed, now->downscale);
+    char a[240], b[240];
+    snprintf(a, sizeof a, "--iters %d --densify %s --anchor-gap %d --sampling %s --clips-per-run %d "
+             "--seed %llu --downscale %d", old->iters, gv_splat_densify_mode_name(old->densify),
+             old->anchor_gap, gv_sampling_name(old->sampling), old->clips_per_run,
+             (unsigned long long)old->seed, old->downscale);
+    snprintf(b, sizeof b, "--iters %d --densify %s --anchor-gap %d --sampling %s --clips-per-run %d "
+             "--seed %llu --downscale %d", now->iters, gv_splat_densify_mode_name(now->densify),
+             now->anchor_gap, gv_sampling_name(now->sampling), now->clips_per_run,
+             (unsigned long long)now->seed, now->downscale);
     if (strcmp(a, b))
         return gv_fail("%s/manifest.json: the dataset was built with %s; this build asks for %s "
                        "(use another --out folder)", dir, a, b);

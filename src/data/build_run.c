@@ -208,7 +208,7 @@ int data_build_run(const data_run *run, gv_manifest *m, gv_run_record *rec)
         cache_init(&cache, run->scene->n_frames, frames, n_clips) != 0)
         goto done;
     const gv_artifact_simulator *sim = run->simulator;
-    if (sim->train(sim->ctx, run->scene, run->id.n, run->params->iters,
+    if (sim->train(sim->ctx, run->scene, run->id.n, run->params->iters, run->params->densify,
                    gv_run_seed(run->params->seed, run->id.scene, run->id.n), &model) != 0) {
         gv_fail_context("%s: n=%d: %s", run->id.scene, run->id.n, sim->name);
         goto done;

@@ -11,6 +11,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/internal_pairs.h"
 #include "gaussvid/metrics.h"
+#include "gaussvid/splat_train.h"
 #include "data/build_internal.h"
 
 #define PARITY_SEED 0x9E3779B97F4A7C15ull /* subset 1's seed differs from subset 0's */
@@ -135,7 +136,7 @@ static int build_subset(const build_ctx *b, int p)
     gv_info("%s (views %s: %d views at interval %d), %d clip%s", what, list, views, step, clips, clips == 1 ? "" : "s");
     uint64_t seed = gv_run_seed(b->o->seed, b->name, step) ^ (p ? PARITY_SEED : 0);
     void *model = NULL;
-    if (b->sim->train(b->sim->ctx, &view, step, b->o->iters, seed, &model))
+    if (b->sim->train(b->sim->ctx, &view, step, b->o->iters, b->o->densify, seed, &model))
         return gv_fail_context("%s: %s", what, b->sim->name);
     int rc = 0;
     for (int i = 0; rc == 0 && i < b->count; i++)
@@ -211,7 +212,7 @@ static int already_built(const build_ctx *b)
     if (!found) return 0;
     const gv_dataset_params *p = &m.params, *q = &b->params;
     int same = m.n_runs == 1 && !strcmp(m.runs[0].id.scene, b->name) && m.runs[0].id.n == 2 * b->o->interval &&
-               p->iters == q->iters && p->seed == q->seed && p->clips_per_run == q->clips_per_run &&
+               p->iters == q->iters && p->densify == q->densify && p->seed == q->seed && p->clips_per_run == q->clips_per_run &&
                p->downscale == q->downscale && p->anchor_gap == q->anchor_gap && p->sampling == q->sampling;
     int complete = same && m.n_clips == b->count;
     for (int i = 0; complete && i < m.n_clips; i++) {
@@ -225,10 +226,10 @@ static int already_built(const build_ctx *b)
     }
     gv_manifest_free(&m);
     if (!same)
-        return gv_fail("%s: holds other clips than the %s of %s at n = %d with %d iterations and seed "
-                       "%llu: use another folder", b->o->out_dir,
+        return gv_fail("%s: holds other clips than the %s of %s at n = %d with %d iterations, density control %s "
+                       "and seed %llu: use another folder", b->o->out_dir,
                        b->o->full_model ? "do-no-harm clips" : "internal pairs", b->name, b->o->interval, q->iters,
-                       (unsigned long long)q->seed);
+                       gv_splat_densify_mode_name(q->densify), (unsigned long long)q->seed);
     return complete;
 }
 
@@ -249,7 +250,7 @@ int gv_internal_build(const gv_scene *scene, const gv_internal_options *o, gv_in
     if (!b.clips) return gv_fail("out of memory for %d frames", scene->n_frames);
     int rc = gv_internal_plan(scene->n_frames, o->interval, b.clips, &b.count);
     gv_dataset_default_params(&b.params);
-    b.params.iters = o->iters, b.params.seed = o->seed, b.params.clips_per_run = b.count;
+    b.params.iters = o->iters, b.params.densify = o->densify, b.params.seed = o->seed, b.params.clips_per_run = b.count;
     b.params.downscale = scene->downscale > 0 ? scene->downscale : 1;
     if (rc == 0) rc = data_prepare_out_dir(o->out_dir); /* as dataset build: a killed subset's temporaries go */
     int done = rc == 0 ? already_built(&b) : -1;

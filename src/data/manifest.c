@@ -9,6 +9,7 @@
 
 #include "gaussvid/dataset.h"
 #include "gaussvid/json.h"
+#include "gaussvid/splat_train.h"
 
 #define MANIFEST_NAME "manifest.json"
 #define MAX_SEED 9007199254740992.0 /* 2^53: integers a JSON number (a double) holds exactly */
@@ -104,6 +105,7 @@ static cJSON *params_json(const gv_dataset_params *p)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddNumberToObject(o, "iters", p->iters);
+    cJSON_AddStringToObject(o, "densify", gv_splat_densify_mode_name(p->densify));
     cJSON_AddNumberToObject(o, "anchor_gap", p->anchor_gap);
     cJSON_AddStringToObject(o, "sampling", gv_sampling_name(p->sampling));
     cJSON_AddNumberToObject(o, "clips_per_run", p->clips_per_run);
@@ -191,6 +193,16 @@ static int read_params(const cJSON *o, const char *path, gv_dataset_params *p)
         get_string(o, "sampling", sampling, sizeof sampling, path, "params"))
         return -1;
     if (gv_sampling_from_name(sampling, &p->sampling) != 0) return gv_fail_context("%s", path);
+    /* Absent in folders built before lean density control existed: they used the reference's. */
+    p->densify = GV_DENSIFY_REFERENCE;
+    if (cJSON_GetObjectItemCaseSensitive(o, "densify")) {
+        char densify[16];
+        if (get_string(o, "densify", densify, sizeof densify, path, "params")) return -1;
+        int mode = gv_splat_densify_mode_parse(densify);
+        if (mode < 0)
+            return gv_fail("%s: params: densify \"%s\": expected " GV_DENSIFY_MODE_NAMES, path, densify);
+        p->densify = mode;
+    }
     p->iters = (int)v[0], p->anchor_gap = (int)v[1], p->clips_per_run = (int)v[2];
     p->seed = (uint64_t)v[3], p->downscale = (int)v[4];
     return 0;

@@ -10,6 +10,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/json.h"
 #include "gaussvid/scene_adapt.h"
+#include "gaussvid/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 static int metrics_path(const gv_reconstruct_options *o, char *out, size_t size)
@@ -98,6 +99,7 @@ static cJSON *inputs_json(const gv_reconstruct_options *o)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddNumberToObject(j, "iters", o->iters);
+    cJSON_AddStringToObject(j, "densify", gv_splat_densify_mode_name(o->densify));
     cJSON_AddNumberToObject(j, "refine_iters", o->refine_iters);
     cJSON_AddNumberToObject(j, "refine_weight", o->refine_weight);
     cJSON_AddStringToObject(j, "checkpoint", o->ckpt);

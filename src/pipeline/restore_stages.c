@@ -36,6 +36,7 @@ int pipeline_adapt(pipeline_run *r)
     a.work_dir = NULL;
     a.downscale = r->opt->downscale;
     a.iters = r->opt->iters;
+    a.densify = r->opt->densify; /* the internal pairs' 3DGS as the sparse model's */
     gv_adapt_report rep;
     if (gv_adapt_scene(&a, &rep)) return -1;
     if (!rep.done) return gv_fail("%s: the adaptation stopped before its end", r->restorer);

@@ -36,6 +36,7 @@ int pipeline_train(pipeline_run *r)
     gv_splat_train_options opt;
     gv_splat_train_defaults(&opt);
     opt.iterations = r->opt->iters;
+    opt.densify_mode = (gv_splat_densify_mode)r->opt->densify;
     opt.seed = r->opt->seed;
     char label[32];
     snprintf(label, sizeof label, "train n=%d", r->n);

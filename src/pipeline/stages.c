@@ -9,6 +9,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/model_config.h"
 #include "gaussvid/report.h"
+#include "gaussvid/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 typedef struct {
@@ -20,7 +21,7 @@ typedef struct {
 } stage;
 
 static const stage STAGES[] = {
-    {"train", pipeline_train, 0, "iters seed downscale", {"sparse.ply", "sparse.splat"}},
+    {"train", pipeline_train, 0, "iters densify seed downscale", {"sparse.ply", "sparse.splat"}},
     {"render", pipeline_render, 0, "", {"frames/render"}},
     {"adapt", pipeline_adapt, 1, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}},
     {"restore", pipeline_restore, 0, "checkpoint adapt seed", {"frames/restored"}},
@@ -43,6 +44,7 @@ void gv_reconstruct_defaults(gv_reconstruct_options *o)
     memset(o, 0, sizeof *o);
     o->downscale = 1;
     o->iters = 8000;
+    o->densify = GV_DENSIFY_DEFAULT;
     o->refine_iters = 1000;
     o->refine_weight = 0.3;
     o->fps = 8;

@@ -9,6 +9,7 @@
 
 #include "gaussvid/adapt.h"
 #include "gaussvid/core.h"
+#include "gaussvid/splat_train.h"
 #include "gaussvid/dist.h"
 
 void gv_adapt_defaults(gv_adapt_options *o)
@@ -16,6 +17,7 @@ void gv_adapt_defaults(gv_adapt_options *o)
     memset(o, 0, sizeof *o);
     o->downscale = 1;
     o->iters = 8000;                  /* paper 3.2, as `dataset build` */
+    o->densify = GV_DENSIFY_DEFAULT;  /* as `splat train` and `reconstruct` train the user's model */
     o->hold_every = 3;
     gv_train_defaults(&o->train, GV_OBJECTIVE_FINETUNE);
     o->train.steps = 300;
@@ -217,8 +219,10 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
         return -1;
     }
     int planes = want.variant.coverage || o->compose == GV_COMPOSE_UNSEEN; /* both read the coverage plane */
-    gv_internal_options po = {o->interval, o->iters, o->train.seed, o->simulator, pairs, 0, planes};
-    gv_internal_options ho = {o->interval, o->iters, o->train.seed, o->simulator, harm, 1, planes};
+    gv_internal_options po = {.interval = o->interval, .iters = o->iters, .densify = o->densify, .seed = o->train.seed,
+                              .simulator = o->simulator, .out_dir = pairs, .full_model = 0, .coverage = planes};
+    gv_internal_options ho = po;
+    ho.out_dir = harm, ho.full_model = 1;
     /* under mpirun rank 0 builds the clips and the others wait for them: only the fine-tuning
      * is shared among the ranks */
     int rc = gv_dist_is_root() ? gv_internal_build(&scene, &po, &r->pairs) : 0;

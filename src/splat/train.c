@@ -48,23 +48,31 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     opt->schedule = (gv_splat_schedule){.sh_interval = 1000, .densify_from = 500,
                                         .densify_until = 15000, .densify_interval = 100,
                                         .opacity_reset_interval = 3000};
-    opt->densify = (gv_splat_densify_params){.grad_threshold = 0.0002, .percent_dense = 0.01,
-                                             .min_opacity = 0.005};
-    opt->densify_mode = GV_DENSIFY_REFERENCE;
+    opt->densify = (gv_splat_densify_params){.percent_dense = 0.01, .min_opacity = 0.005};
+    opt->densify_mode = GV_DENSIFY_DEFAULT;
     gv_splat_mcmc_defaults(&opt->mcmc);
     opt->gaussians_per_pixel = 0.02;
 }
 
+double gv_splat_densify_threshold(const gv_splat_train_options *opt)
+{
+    if (opt->densify.grad_threshold > 0) return opt->densify.grad_threshold;
+    /* The reference's densify_grad_threshold; lean doubles it, chosen on the 15-cell table
+     * of docs/RESULTS.md at 256x144. */
+    return opt->densify_mode == GV_DENSIFY_LEAN ? 0.0004 : 0.0002;
+}
+
 int gv_splat_densify_mode_parse(const char *name)
 {
-    if (strcmp(name, "mcmc") == 0) return GV_DENSIFY_MCMC;
+    if (strcmp(name, "lean") == 0) return GV_DENSIFY_LEAN;
     if (strcmp(name, "reference") == 0) return GV_DENSIFY_REFERENCE;
+    if (strcmp(name, "mcmc") == 0) return GV_DENSIFY_MCMC;
     return -1;
 }
 
 const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode)
 {
-    return mode == GV_DENSIFY_MCMC ? "mcmc" : "reference";
+    return mode == GV_DENSIFY_MCMC ? "mcmc" : mode == GV_DENSIFY_LEAN ? "lean" : "reference";
 }
 
 /* The list 0 .. capacity - 1 (Adam's rows when a regulariser gives every row a gradient). */
@@ -145,6 +153,7 @@ int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt
     if (check_inputs(opt, n_views, cameras, images, extent) != 0) return -1;
     t->opt = *opt;
     t->opt.densify.extent = extent;
+    t->opt.densify.grad_threshold = gv_splat_densify_threshold(opt);
     t->n_views = n_views, t->cameras = cameras, t->images = images, t->extent = extent;
     long pixels = 0, all_pixels = 0;
     t->views = calloc((size_t)n_views, sizeof *t->views);

@@ -24,6 +24,14 @@ rows=$(grep -cE '^ +[0-9]+ +[0-9]+ +[0-9]+ +[0-9]+ ' "$tmp/table.txt")
 check "table has checkpoint rows" test "$rows" -ge 5
 check "table has the phases" grep -q "median ms per iteration: render" "$tmp/table.txt"
 check "table has the quality" grep -q "held-out PSNR" "$tmp/table.txt"
+check "table compares lean with the reference" \
+    test "$(grep -cE '^\| scene \| (lean|reference) \| [0-9.]+ \| [0-9.]+x \|' "$tmp/table.txt")" -eq 2
+check "the reference's speed-up is 1" grep -qE '^\| scene \| reference \| [0-9.]+ \| 1.00x \|' "$tmp/table.txt"
+"$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet --densify mcmc > "$tmp/mcmc.txt"
+check "--densify mcmc runs one" test "$(grep -c 'density control mcmc' "$tmp/mcmc.txt")" -eq 1
+"$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --densify lean,dense 2> "$tmp/err.txt"
+check "unknown mode exits 2" test $? -eq 2
+check "unknown mode named" grep -q "'dense' is not one of lean, reference or mcmc" "$tmp/err.txt"
 "$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet --json > "$tmp/b.json"
 check "json run exits 0" test $? -eq 0
 for key in seconds cpu_seconds median_ms checkpoints held_out_psnr final_gaussians; do

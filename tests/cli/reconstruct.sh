@@ -167,8 +167,11 @@ check "refine recorded with its inputs" python3 -c "
 import json; r = json.load(open('R2/metrics.json'))['runs'][0]
 s = {s['name']: s for s in r['stages']}
 assert s['refine']['inputs'] == {'refine_iters': 41, 'refine_weight': 0.3}, s['refine']
-assert s['train']['inputs'] == {'iters': 60, 'seed': 0, 'downscale': 1}, s['train']
+assert s['train']['inputs'] == {'iters': 60, 'densify': 'lean', 'seed': 0, 'downscale': 1}, s['train']
 assert r['inputs']['refine_iters'] == 41"
+# Another density control trains again (and so every later stage).
+expect 0 "other density control" -- "$G" reconstruct "${RC[@]}" --densify reference --out R2 --stop-after train
+check "the training redone" grep -q 'n=6 train: made before with densify "lean", now "reference": done again' "$T/err"
 rm R/n6/frames/restored/frame_00013.png
 cp R/n6/refined.ply refined_first.ply
 expect 0 "a lost frame" -- "$G" reconstruct "${RC[@]}" --out R --stop-after $LAST
