@@ -35,19 +35,23 @@ static void test_accumulate(void)
     gv_splat_densify_stats_free(&s);
 }
 
-static void test_clone_split_prune(void)
+/* Seven Gaussians, their statistics and Adam moments (the comments say what the reference's
+ * threshold 0.0002 does with each). */
+static const float opaque = 0.5f;
+static const float id[4] = {1, 0, 0, 0};
+
+static void hand_built_set(gv_gaussians *out, gv_splat_adam *adam_out, gv_splat_densify_stats *s)
 {
     gv_gaussians g;
     gv_splat_adam adam;
     gv_splat_adam_config c;
-    gv_splat_densify_stats s = {0};
     gv_splat_adam_defaults(&c);
     CHECK(gv_gaussians_alloc(&g, 7, 1) == 0);
     const float small[3] = {logf(0.05f), logf(0.05f), logf(0.05f)};
     const float large[3] = {logf(0.5f), logf(0.2f), logf(0.3f)};
     const float huge[3] = {logf(2.0f), logf(0.1f), logf(0.1f)};
-    const float id[4] = {1, 0, 0, 0}, zrot[4] = {2, 0, 0, 2}; /* 90 deg about z, unnormalised */
-    float opaque = 0.5f, faint = logf(0.001f / 0.999f);
+    const float zrot[4] = {2, 0, 0, 2}; /* 90 deg about z, unnormalised */
+    float faint = logf(0.001f / 0.999f);
     set_gaussian(&g, 0, 0, small, opaque, id);   /* grad 0.0003, small: clone */
     set_gaussian(&g, 1, 1, large, opaque, zrot); /* grad 0.0005, large: split */
     set_gaussian(&g, 2, 2, small, opaque, id);   /* grad 0.0001: kept as is */
@@ -56,15 +60,25 @@ static void test_clone_split_prune(void)
     set_gaussian(&g, 5, 5, small, opaque, id);   /* never visible: kept */
     set_gaussian(&g, 6, 6, small, opaque, id);   /* grad exactly 0.0002 (>=): clone */
     CHECK(gv_splat_adam_init(&adam, &c, &g, 10.0) == 0);
-    CHECK(gv_splat_densify_stats_reserve(&s, g.capacity) == 0);
+    CHECK(gv_splat_densify_stats_reserve(s, g.capacity) == 0);
     float accum[7] = {0.0006f, 0.0015f, 0.0001f, 0, 0.0001f, 0, 0.0004f};
     int denom[7] = {2, 3, 1, 1, 1, 0, 2};
     for (int i = 0; i < 7; i++) {
-        s.grad_accum[i] = accum[i], s.denom[i] = denom[i], s.max_radii[i] = 100;
+        s->grad_accum[i] = accum[i], s->denom[i] = denom[i], s->max_radii[i] = 100;
         adam.m.means[3 * i] = (float)(i + 1), adam.v.scales[3 * i + 2] = (float)(i + 1);
         adam.m.sh[W * i + 5] = (float)(i + 1);
     }
     adam.step[GV_ADAM_MEANS] = 41;
+    *out = g, *adam_out = adam;
+}
+
+static void test_clone_split_prune(void)
+{
+    gv_gaussians g;
+    gv_splat_adam adam;
+    gv_splat_densify_stats s = {0};
+    const float huge[3] = {logf(2.0f), logf(0.1f), logf(0.1f)};
+    hand_built_set(&g, &adam, &s);
     gv_splat_densify_params p = {.grad_threshold = 0.0002, .percent_dense = 0.01,
                                  .min_opacity = 0.005, .extent = 10.0, .prune_big = 1};
     gv_rng rng, expect_rng;
@@ -111,6 +125,32 @@ static void test_clone_split_prune(void)
     q.max_screen_size = 20;
     CHECK(gv_splat_densify_and_prune(&g, &adam, &s, &q, &rng, &counts) == 0);
     CHECK(g.n == 7 && counts.pruned == 1 && g.means[3] == 5); /* the next row moved up */
+    gv_splat_adam_free(&adam), gv_splat_densify_stats_free(&s), gv_gaussians_free(&g);
+}
+
+/* lean (the default control) on the same set: its threshold 0.0004 leaves Gaussian 0 (mean
+ * statistic 0.0003) and 6 (0.0002) alone, which the reference clones; 1 (0.0005) still splits
+ * and the prunes are the same. */
+static void test_lean_threshold(void)
+{
+    gv_gaussians g;
+    gv_splat_adam adam;
+    gv_splat_densify_stats s = {0};
+    hand_built_set(&g, &adam, &s);
+    gv_splat_train_options o;
+    gv_splat_train_defaults(&o);
+    gv_splat_densify_params p = o.densify;
+    p.grad_threshold = gv_splat_densify_threshold(&o), p.extent = 10.0, p.prune_big = 1;
+    CHECK(p.grad_threshold == 0.0004);
+    gv_rng rng;
+    gv_rng_init(&rng, 99);
+    gv_splat_densify_counts counts;
+    CHECK(gv_splat_densify_and_prune(&g, &adam, &s, &p, &rng, &counts) == 0);
+    CHECK(counts.cloned == 0 && counts.split == 1 && counts.pruned == 2);
+    /* Rows: kept originals 0 2 5 6, then the two children of 1. */
+    CHECK(g.n == 6);
+    const float x_expected[4] = {0, 2, 5, 6};
+    for (int i = 0; i < 4; i++) CHECK(g.means[3 * i] == x_expected[i]);
     gv_splat_adam_free(&adam), gv_splat_densify_stats_free(&s), gv_gaussians_free(&g);
 }
 
@@ -176,6 +216,7 @@ int main(void)
 {
     test_accumulate();
     test_clone_split_prune();
+    test_lean_threshold();
     test_split_distribution();
     test_reset_opacity();
     return check_summary();
