@@ -1,7 +1,7 @@
 /* `gaussvid bench splat`: speed of sparse-view 3DGS training (DESIGN.md section 5).
  * For each scene (the shared courtyard and livingroom by default), trains on every 6th frame
  * for 8000 iterations as the dataset builder does, once with each density control asked for
- * (by default lean, the trainer's default, and the reference's), one after the other in the
+ * (by default lean and the reference's, the trainer's default), one after the other in the
  * same process, and reports for each run:
  * - the median milliseconds per iteration of each phase of the loop (render forward, loss,
  *   backward, densification, Adam) and the seconds for the whole run;
@@ -400,12 +400,12 @@ int gv_bench_splat_command(int argc, char **argv)
     const gv_command_spec spec = {
         "bench splat", NULL, "sparse-view 3DGS training speed: phases, kernel stages, quality",
         "Trains on every 6th frame of each scene for 8000 iterations (the dataset's early stop),\n"
-        "once with each density control of --densify (by default lean, the trainer's default,\n"
-        "and the paper's reference), and prints for each run the median ms per iteration of\n"
-        "each phase, the Gaussian count and the median time of each kernel stage every 1000\n"
-        "iterations, the seconds for the run, its peak RSS and the final held-out PSNR / SSIM;\n"
-        "then every run side by side with the ratio of the reference's wall time to its own\n"
-        "(the speed-up). Results: docs/BENCHMARKS.md.",
+        "once with each density control of --densify (by default lean and the paper's\n"
+        "reference, the trainer's default), and prints for each run the median ms per\n"
+        "iteration of each phase, the Gaussian count and the median time of each kernel stage\n"
+        "every 1000 iterations, the seconds for the run, its peak RSS and the final held-out\n"
+        "PSNR / SSIM; then every run side by side with the ratio of the reference's wall time\n"
+        "to its own (the speed-up). Results: docs/BENCHMARKS.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int rc = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (rc != GV_ARGS_OK) return gv_args_exit_code(rc);

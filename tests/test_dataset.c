@@ -487,7 +487,7 @@ static void test_manifest(const char *base)
     CHECK(gv_manifest_read(dir, &back, &found) == 0 && found == 0 && back.n_runs == 0);
     gv_dataset_params p;
     gv_dataset_default_params(&p);
-    CHECK(p.densify == GV_DENSIFY_LEAN); /* the trainer's default */
+    CHECK(p.densify == GV_DENSIFY_REFERENCE); /* the trainer's default */
     p.seed = 77, p.sampling = GV_SAMPLING_RANDOM, p.clips_per_run = 2, p.densify = GV_DENSIFY_MCMC;
     gv_manifest_init(&m, &p);
     gv_manifest_run r1 = {{"zeta", "train", 6}, 2, 12.5}, r2 = {{"alpha", "eval", 8}, 1, 3.0};

@@ -310,8 +310,8 @@ static void test_build_and_resume(const char *base)
     o3.params.iters = 100;
     CHECK_FAILS_WITH(build(&o3, &r), "--iters 8000");
     o3 = o;
-    o3.params.densify = GV_DENSIFY_REFERENCE;
-    CHECK_FAILS_WITH(build(&o3, &r), "--densify lean"); /* what the folder was built with */
+    o3.params.densify = GV_DENSIFY_LEAN;
+    CHECK_FAILS_WITH(build(&o3, &r), "--densify reference"); /* what the folder was built with */
     o3 = o;
     o3.n_eval_scenes = 0;
     CHECK_FAILS_WITH(build(&o3, &r), "beta n=6 was built in the eval split");

@@ -128,9 +128,9 @@ static void test_clone_split_prune(void)
     gv_splat_adam_free(&adam), gv_splat_densify_stats_free(&s), gv_gaussians_free(&g);
 }
 
-/* lean (the default control) on the same set: its threshold 0.0004 leaves Gaussian 0 (mean
- * statistic 0.0003) and 6 (0.0002) alone, which the reference clones; 1 (0.0005) still splits
- * and the prunes are the same. */
+/* lean on the same set: its threshold 0.0004 leaves Gaussian 0 (mean statistic 0.0003) and 6
+ * (0.0002) alone, which the reference clones; 1 (0.0005) still splits and the prunes are the
+ * same. */
 static void test_lean_threshold(void)
 {
     gv_gaussians g;
@@ -139,6 +139,7 @@ static void test_lean_threshold(void)
     hand_built_set(&g, &adam, &s);
     gv_splat_train_options o;
     gv_splat_train_defaults(&o);
+    o.densify_mode = GV_DENSIFY_LEAN;
     gv_splat_densify_params p = o.densify;
     p.grad_threshold = gv_splat_densify_threshold(&o), p.extent = 10.0, p.prune_big = 1;
     CHECK(p.grad_threshold == 0.0004);

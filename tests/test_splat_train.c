@@ -256,18 +256,18 @@ static int same_model(const gv_gaussians *a, const gv_gaussians *b)
            !memcmp(a->rotations, b->rotations, 4 * n * sizeof(float));
 }
 
-/* lean is the default and is the reference's control at twice its threshold, nothing else:
- * the same model, byte for byte, as --densify reference --grad-threshold 0.0004; the
- * reference's own threshold clones and splits more. */
+/* lean is the reference's control at twice its threshold, nothing else: the same model,
+ * byte for byte, as --densify reference --grad-threshold 0.0004; the reference (the
+ * default) clones and splits more. */
 static void test_lean(const tiny_scene *s)
 {
     gv_splat_train_options lean, ref, ref_doubled;
-    short_options(&lean, 200);
-    CHECK(lean.densify_mode == GV_DENSIFY_LEAN && lean.densify.grad_threshold == 0);
-    CHECK(gv_splat_densify_threshold(&lean) == 0.0004);
-    ref = lean;
-    ref.densify_mode = GV_DENSIFY_REFERENCE;
+    short_options(&ref, 200);
+    CHECK(ref.densify_mode == GV_DENSIFY_REFERENCE && ref.densify.grad_threshold == 0);
     CHECK(gv_splat_densify_threshold(&ref) == 0.0002);
+    lean = ref;
+    lean.densify_mode = GV_DENSIFY_LEAN;
+    CHECK(gv_splat_densify_threshold(&lean) == 0.0004);
     ref_doubled = ref;
     ref_doubled.densify.grad_threshold = 0.0004;
     CHECK(gv_splat_densify_threshold(&ref_doubled) == 0.0004);

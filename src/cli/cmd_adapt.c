@@ -62,7 +62,7 @@ int cmd_adapt(int argc, char **argv)
         {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's", 0},
         {"iters", GV_FLAG_INT, &o.iters, "N", "3DGS iterations of each internal subset model (default 8000, as dataset build)", 0},
         {"densify", GV_FLAG_STRING, &densify, "MODE",
-         "their density control, as the scene's sparse model was trained: lean (default), reference or mcmc", 0},
+         "their density control, as the scene's sparse model was trained: reference (default), lean or mcmc", 0},
         {"downscale", GV_FLAG_INT, &o.downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
         {"hold-every", GV_FLAG_INT, &o.hold_every, "K", "hold back internal clips 1, 1 + K, 1 + 2K, ... for validation (default 3)", 0},
         {"steps", GV_FLAG_INT, &steps, "N", "fine-tuning steps (default 300)", 0},

@@ -25,7 +25,7 @@ int cmd_dataset_build(int argc, char **argv)
         {"out", GV_FLAG_STRING, &out, "DIR", "the dataset folder (created; an existing one is resumed)", 1},
         {"intervals", GV_FLAG_STRING, &intervals_text, "A:B:S", "intervals n: \"a:b:s\", \"a:b\", \"n\", comma-separated (default 6:26:2)", 0},
         {"iters", GV_FLAG_INT, &p.iters, "N", "3DGS iterations, the early stop (default 8000, the paper's)", 0},
-        {"densify", GV_FLAG_STRING, &densify, "MODE", "3DGS density control: lean (default), reference (the paper's) or mcmc", 0},
+        {"densify", GV_FLAG_STRING, &densify, "MODE", "3DGS density control: reference (default, the paper's), lean or mcmc", 0},
         {"clips-per-run", GV_FLAG_INT, &p.clips_per_run, "K", "clips per (scene, n) (default 4)", 0},
         {"anchor-gap", GV_FLAG_INT, &p.anchor_gap, "G", "anchors G training views apart, G*n frames (default 1: consecutive)", 0},
         {"sampling", GV_FLAG_STRING, &sampling, "S", "intermediate frames: uniform (default), random or released", 0},
@@ -38,7 +38,7 @@ int cmd_dataset_build(int argc, char **argv)
         "dataset build", NULL, "simulate sparse-view artifacts and sample clean-corrupted-clean clips",
         "For every scene and interval n: 3DGS trained on frames 0, n, 2n, ... and stopped at\n"
         "--iters renders every held-out frame (its PSNR/SSIM go to runs/<scene>_n<n>.json);\n"
-        "--densify reference trains as the paper does (splat train --help says how they differ).\n"
+        "--densify lean trains twice as fast (splat train --help says how the controls differ).\n"
         "K clips are sampled: two training views G*n apart as clean anchors, three held-out\n"
         "frames between them (uniform: round(s + j*G*n/4), j = 1, 2, 3), each clip one\n"
         "safetensors file under clips/, all listed in manifest.json. Runs already in the\n"

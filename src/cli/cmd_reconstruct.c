@@ -52,7 +52,7 @@ int cmd_reconstruct(int argc, char **argv)
         {"out", GV_FLAG_STRING, &o.out_dir, "DIR", "where everything goes: metrics.json and nN/ per interval (docs/RECONSTRUCT.md)", 1},
         {"ckpt", GV_FLAG_STRING, &o.ckpt, "FILE", "the restorer (default " DEFAULT_CKPT ")", 0},
         {"iters", GV_FLAG_INT, &o.iters, "N", "sparse 3DGS iterations (default 8000)", 0},
-        {"densify", GV_FLAG_STRING, &densify, "MODE", "its density control: lean (default), reference (the paper's) or mcmc", 0},
+        {"densify", GV_FLAG_STRING, &densify, "MODE", "its density control: reference (default, the paper's), lean (twice as fast) or mcmc", 0},
         {"refine-iters", GV_FLAG_INT, &o.refine_iters, "N", "refinement iterations (default 1000)", 0},
         {"refine-weight", GV_FLAG_DOUBLE, &o.refine_weight, "W", "loss weight of the restored frames in the refinement, in (0, 1]; training views weigh 1 (default 0.3)", 0},
         {"adapt", GV_FLAG_BOOL, &o.adapt, NULL, "adapt the restorer to the scene first (gaussvid adapt, docs/ADAPT.md) and restore with the result", 0},

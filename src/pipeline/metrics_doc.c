@@ -222,10 +222,14 @@ int pipeline_stage_done(const pipeline_run *r, const char *name, const char *key
         const cJSON *n = cJSON_GetObjectItem(s, "name");
         if (!cJSON_IsString(n) || strcmp(n->valuestring, name)) continue;
         cJSON *now = stage_inputs(r, keys);
-        const cJSON *was = cJSON_GetObjectItem(s, "inputs");
+        const cJSON *recorded = cJSON_GetObjectItem(s, "inputs");
+        cJSON *was = recorded ? cJSON_Duplicate(recorded, 1) : NULL;
+        /* Runs from before "densify" was an input trained with the reference's control. */
+        if (was && cJSON_GetObjectItem(now, "densify") && !cJSON_GetObjectItem(was, "densify"))
+            cJSON_AddStringToObject(was, "densify", gv_splat_densify_mode_name(GV_DENSIFY_REFERENCE));
         int same = was && cJSON_Compare(was, now, 1);
         if (!same) describe_difference(was, now, why, size);
-        cJSON_Delete(now);
+        cJSON_Delete(now), cJSON_Delete(was);
         return same;
     }
     return 0;

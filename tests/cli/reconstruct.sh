@@ -167,11 +167,21 @@ check "refine recorded with its inputs" python3 -c "
 import json; r = json.load(open('R2/metrics.json'))['runs'][0]
 s = {s['name']: s for s in r['stages']}
 assert s['refine']['inputs'] == {'refine_iters': 41, 'refine_weight': 0.3}, s['refine']
-assert s['train']['inputs'] == {'iters': 60, 'densify': 'lean', 'seed': 0, 'downscale': 1}, s['train']
+assert s['train']['inputs'] == {'iters': 60, 'densify': 'reference', 'seed': 0, 'downscale': 1}, s['train']
 assert r['inputs']['refine_iters'] == 41"
 # Another density control trains again (and so every later stage).
-expect 0 "other density control" -- "$G" reconstruct "${RC[@]}" --densify reference --out R2 --stop-after train
-check "the training redone" grep -q 'n=6 train: made before with densify "lean", now "reference": done again' "$T/err"
+expect 0 "other density control" -- "$G" reconstruct "${RC[@]}" --densify lean --out R2 --stop-after train
+check "the training redone" grep -q 'n=6 train: made before with densify "reference", now "lean": done again' "$T/err"
+# A folder from before "densify" was recorded was trained with the reference: kept.
+cp -r R R3
+python3 -c "
+import json; d = json.load(open('R3/metrics.json'))
+for run in d['runs']:
+    run['inputs'].pop('densify')
+    for s in run['stages']: s['inputs'].pop('densify', None)
+json.dump(d, open('R3/metrics.json', 'w'))"
+expect 0 "a folder from before densify" -- "$G" reconstruct "${RC[@]}" --out R3 --stop-after train
+check "its training kept" grep -q "n=6 train: done before, skipped" "$T/err"
 rm R/n6/frames/restored/frame_00013.png
 cp R/n6/refined.ply refined_first.ply
 expect 0 "a lost frame" -- "$G" reconstruct "${RC[@]}" --out R --stop-after $LAST

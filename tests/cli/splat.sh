@@ -30,15 +30,16 @@ check "another seed, another model" test -s "$tmp/c.ply" -a -n "$(cmp "$tmp/a.pl
 "$gaussvid" splat train --scene "$scene" --iters 30 --sh-degree 1 --out "$tmp/d.ply" --quiet > "$tmp/d.txt"
 check "--sh-degree 1" grep -q "SH degree 1" "$tmp/d.txt"
 
-# Density control: lean is the default; past the first densification (iteration 600) the
-# reference's lower threshold gives another model; an unknown mode is a usage error.
-train "$tmp/lean_default.ply" --iters 700 > /dev/null 2>&1
+# Density control: the reference is the default; past the first densification (iteration
+# 600) lean's higher threshold gives another model, the reference's at threshold 0.0004; an
+# unknown mode is a usage error.
+train "$tmp/ref_default.ply" --iters 700 > /dev/null 2>&1
 train "$tmp/lean.ply" --iters 700 --densify lean > /dev/null 2>&1
 train "$tmp/lean_as_ref.ply" --iters 700 --densify reference --grad-threshold 0.0004 > /dev/null 2>&1
 train "$tmp/ref.ply" --iters 700 --densify reference > /dev/null 2>&1
-check "lean is the default" cmp -s "$tmp/lean_default.ply" "$tmp/lean.ply"
+check "the reference is the default" cmp -s "$tmp/ref_default.ply" "$tmp/ref.ply"
 check "lean = reference at threshold 0.0004" cmp -s "$tmp/lean.ply" "$tmp/lean_as_ref.ply"
-check "reference is another model" test -s "$tmp/ref.ply" -a -n "$(cmp "$tmp/lean.ply" "$tmp/ref.ply")"
+check "lean is another model" test -s "$tmp/ref.ply" -a -n "$(cmp "$tmp/lean.ply" "$tmp/ref.ply")"
 train "$tmp/x.ply" --densify dense > /dev/null 2> "$tmp/err.txt"
 check "unknown --densify exits 2" test $? -eq 2
 check "unknown --densify explained" grep -q "expected lean, reference or mcmc" "$tmp/err.txt"
