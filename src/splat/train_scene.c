@@ -33,7 +33,8 @@ static int run(gv_splat_trainer *t, const char *label)
         gv_info("MCMC density control: budget %d Gaussians, %ld relocated, %ld added",
                 t->opt.mcmc.cap, t->relocated, t->added);
     else
-        gv_info("reference density control: %d cloned, %d split, %d pruned",
+        gv_info("%s density control (threshold %g): %d cloned, %d split, %d pruned",
+                gv_splat_densify_mode_name(t->opt.densify_mode), t->opt.densify.grad_threshold,
                 t->densified.cloned, t->densified.split, t->densified.pruned);
     return 0;
 }
