@@ -387,7 +387,7 @@ int gv_bench_splat_command(int argc, char **argv)
 {
     gv_bench_splat_options o = {.interval = 6, .iterations = 8000, .checkpoint_every = 1000};
     int quick = 0;
-    const char *densify = "lean,reference";
+    gv_flag_list densify = {.n = 0};
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene, "DIR", "one scene (default: the shared courtyard and livingroom)", 0},
         {"json", GV_FLAG_BOOL, &o.json, NULL, "print JSON instead of tables", 0},
@@ -395,7 +395,7 @@ int gv_bench_splat_command(int argc, char **argv)
         {"iters", GV_FLAG_INT, &o.iterations, "N", "iterations (default 8000)", 0},
         {"interval", GV_FLAG_INT, &o.interval, "N", "train on frames 0, N, 2N, ... (default 6)", 0},
         {"sparse-adam", GV_FLAG_BOOL, &o.sparse_adam, NULL, "lean and reference: Adam on the visible Gaussians only", 0},
-        {"densify", GV_FLAG_STRING, &densify, "LIST", "density controls to run, of lean, reference, mcmc (default lean,reference)", 0},
+        {"densify", GV_FLAG_LIST, &densify, "MODE...", "density controls to run, of lean, reference, mcmc (default lean,reference)", 0},
     };
     const gv_command_spec spec = {
         "bench splat", NULL, "sparse-view 3DGS training speed: phases, kernel stages, quality",
@@ -410,25 +410,15 @@ int gv_bench_splat_command(int argc, char **argv)
     int rc = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (rc != GV_ARGS_OK) return gv_args_exit_code(rc);
     if (quick) o.iterations = 300, o.checkpoint_every = 100;
-    char list[64], *save = NULL;
-    if (strlen(densify) >= sizeof list) {
-        fprintf(stderr, "gaussvid bench splat: --densify: a list of at most %zu characters\n",
-                sizeof list - 1);
-        return 2;
-    }
-    snprintf(list, sizeof list, "%s", densify);
-    for (char *name = strtok_r(list, ",", &save); name; name = strtok_r(NULL, ",", &save)) {
-        int mode = gv_splat_densify_mode_parse(name);
+    if (densify.n == 0) o.modes = 1 << GV_DENSIFY_LEAN | 1 << GV_DENSIFY_REFERENCE;
+    for (int k = 0; k < densify.n; k++) {
+        int mode = gv_splat_densify_mode_parse(densify.items[k]);
         if (mode < 0) {
-            fprintf(stderr, "gaussvid bench splat: --densify %s: '%s' is not one of "
-                            GV_DENSIFY_MODE_NAMES "\n", densify, name);
+            fprintf(stderr, "gaussvid bench splat: --densify: '%s' is not one of " GV_DENSIFY_MODE_NAMES "\n",
+                    densify.items[k]);
             return 2;
         }
         o.modes |= 1 << mode;
-    }
-    if (!o.modes) {
-        fprintf(stderr, "gaussvid bench splat: --densify names no density control\n");
-        return 2;
     }
     if (o.iterations < 1 || o.interval < 1) {
         fprintf(stderr, "gaussvid bench splat: --iters and --interval must be at least 1\n");

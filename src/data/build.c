@@ -66,7 +66,7 @@ static int check_params(const gv_dataset_params *p)
     if (p->downscale != 1 && p->downscale != 2 && p->downscale != 4 && p->downscale != 8)
         return gv_fail("downscale %d: expected 1, 2, 4 or 8", p->downscale);
     if ((unsigned)p->sampling > GV_SAMPLING_RELEASED) return gv_fail("unknown sampling %d", (int)p->sampling);
-    if (p->densify != GV_DENSIFY_LEAN && p->densify != GV_DENSIFY_REFERENCE && p->densify != GV_DENSIFY_MCMC)
+    if ((unsigned)p->densify > GV_DENSIFY_LEAN) /* the last of gv_splat_densify_mode */
         return gv_fail("unknown density control %d", p->densify);
     return 0;
 }
