@@ -14,12 +14,12 @@
 
 static const gv_subcommand commands[] = {
     {"reconstruct", cmd_reconstruct, "from a scene to a sparse 3DGS, restored renders, a refined model, metrics, a video"},
-    {"scene", cmd_scene, "scenes: validate and describe (info), synthesise (synth)"},
+    {"scene", cmd_scene, "scenes: from photos with COLMAP (colmap), validate and describe (info), synthesise (synth)"},
     {"splat", cmd_splat, "3D Gaussian Splatting: train, render, evaluate, export to .splat"},
     {"metrics", cmd_metrics, "PSNR and SSIM of two images, as the 3DGS evaluation computes them"},
     {"st", cmd_st, "safetensors files: check one and list its tensors and metadata (inspect)"},
-    {"model", cmd_model, "restoration network: parameter counts and weight checks (inspect)"},
-    {"bench", cmd_bench, "benchmarks: tensor engine, 3DGS trainer, network, restorer training"},
+    {"model", cmd_model, "restoration network: weight checks (inspect), Wan weights (import), one forward pass (run)"},
+    {"bench", cmd_bench, "benchmarks: tensor engine, 3DGS trainer and kernels, network, training, Wan import and streaming"},
     {"dataset", cmd_dataset, "paired clip dataset: build (artifact simulation), stats, show"},
     {"vae", cmd_vae, "the restoration network's VAE: train on scene frames, evaluate reconstruction"},
     {"pretrain", cmd_pretrain, "pretrain the base first-last-frame video model on clean clips"},
@@ -38,9 +38,9 @@ static void print_usage(FILE *out)
             "diffusion transformer\n\nusage: gaussvid COMMAND [options]\n\ncommands:\n",
             GAUSSVID_VERSION);
     for (int i = 0; i < n_commands; i++)
-        fprintf(out, "  %-10s %s\n", commands[i].name, commands[i].summary);
-    fprintf(out, "  %-10s %s\n", "help", "this list; 'gaussvid COMMAND --help' for one command");
-    fprintf(out, "  %-10s %s\n", "version", "print the version");
+        fprintf(out, "  %-12s %s\n", commands[i].name, commands[i].summary);
+    fprintf(out, "  %-12s %s\n", "help", "this list; 'gaussvid COMMAND --help' for one command");
+    fprintf(out, "  %-12s %s\n", "version", "print the version");
 }
 
 /* OpenBLAS picks its kernels from the CPU's model number; on a virtual CPU whose model it does
