@@ -186,6 +186,9 @@ void gv_manifest_free(gv_manifest *m);
 /* Reads dir/manifest.json; *found = 0 (and an empty manifest with zeroed params) when there
  * is none. Fails on a malformed file, naming it and the problem. */
 int gv_manifest_read(const char *dir, gv_manifest *m, int *found);
+/* As gv_manifest_read for a folder that must be a dataset: no manifest.json fails with
+ * "DIR: no manifest.json (not a dataset folder)". */
+int gv_manifest_read_dataset(const char *dir, gv_manifest *m);
 /* Writes dir/manifest.json atomically. */
 int gv_manifest_write(const char *dir, const gv_manifest *m);
 /* Index of the run (scene, n), or -1. */

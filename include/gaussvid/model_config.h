@@ -114,6 +114,10 @@ int gv_model_config_equal(const gv_model_config *a, const gv_model_config *b);
  * coverage=true|false, lora=RANK (0 removes the adapters); a bare camera name, "per-frame",
  * "skip", "residual" or "coverage" is short for the key form. Validates the result. */
 int gv_model_config_set_variant(gv_model_config *c, const char *spec, const char *source);
+/* What --variant takes, for the commands' help. */
+#define GV_VARIANT_HELP                                                                            \
+    "comma-separated: camera=none|early|monolithic|decomposed, anchors=none|first|both, per-frame, " \
+    "skip or residual (the output form), coverage, lora=R (docs/MODEL.md)"
 const char *gv_camera_variant_name(gv_camera_variant v);
 const char *gv_anchors_name(gv_anchors a);
 

@@ -13,9 +13,8 @@
 static int for_each_run(const char *dir, void (*fn)(const gv_run_record *, void *), void *arg)
 {
     gv_manifest m;
-    int found, rc;
-    if ((rc = gv_manifest_read(dir, &m, &found)) != 0) return rc;
-    if (!found) return gv_fail("%s: no manifest.json (not a dataset folder?)", dir);
+    int rc;
+    if ((rc = gv_manifest_read_dataset(dir, &m)) != 0) return rc;
     for (int i = 0; i < m.n_runs && rc == 0; i++) {
         char file[GV_SCENE_NAME_MAX + 32], path[4096];
         gv_run_record rec;

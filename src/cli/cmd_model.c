@@ -315,7 +315,7 @@ static int cmd_model_inspect(int argc, char **argv)
     const gv_flag flags[] = {
         {"config", GV_FLAG_STRING, &o.config, "PRESET|FILE", "a preset (tiny, small, wan2.1-vace-1.3b, wan2.1-vace-14b) or a JSON config", 1},
         {"weights", GV_FLAG_LIST, &names, "FILE[,FILE]", "safetensors files to check; repeat the flag or separate with commas", 0},
-        {"variant", GV_FLAG_STRING, &o.variant, "V", "overrides: camera=none|early|monolithic|decomposed, anchors=..., per_frame=..., lora=RANK", 0},
+        {"variant", GV_FLAG_STRING, &o.variant, "V", GV_VARIANT_HELP, 0},
         {"parts", GV_FLAG_STRING, &o.parts, "P", "parts the files must provide: dit,vace,vae,camera,lora, base, adapters, all (default)", 0},
         {"frames", GV_FLAG_INT, &frames, "N", "clip frames for the cost estimate (default 5)", 0},
         {"height", GV_FLAG_INT, &height, "N", "clip height in pixels (default 144)", 0},

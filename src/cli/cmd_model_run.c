@@ -85,8 +85,7 @@ int cmd_model_run(int argc, char **argv)
         {"inputs", GV_FLAG_STRING, &inputs, "FILE", "safetensors file of named input tensors", 1},
         {"out", GV_FLAG_STRING, &out, "FILE", "safetensors file for the named outputs", 1},
         {"part", GV_FLAG_STRING, &part, "P", "the part to run: dit (default), vae-encode, vae-decode", 0},
-        {"variant", GV_FLAG_STRING, &variant, "V",
-         "overrides: camera=none|early|monolithic|decomposed, anchors=..., per_frame=..., lora=RANK", 0},
+        {"variant", GV_FLAG_STRING, &variant, "V", GV_VARIANT_HELP, 0},
     };
     const gv_command_spec spec = {
         "model run", NULL, "one forward pass of a network part on named input tensors",

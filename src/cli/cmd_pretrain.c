@@ -17,7 +17,7 @@ int cmd_pretrain(int argc, char **argv)
         {"clips", GV_FLAG_STRING, &clips, "DIR", "dataset folder (manifest.json); its train split is used", 1},
         {"config", GV_FLAG_STRING, &config, "PRESET|FILE", "model config (default small)", 0},
         {"vae", GV_FLAG_STRING, &vae, "FILE", "the trained VAE (.safetensors with latent statistics)", 1},
-        {"variant", GV_FLAG_STRING, &variant, "V", "variant overrides, e.g. camera=none (docs/MODEL.md)", 0},
+        {"variant", GV_FLAG_STRING, &variant, "V", GV_VARIANT_HELP, 0},
         {"min-lr", GV_FLAG_DOUBLE, &o.min_lr, "LR", "end of the cosine decay (default 3e-5)", 0},
         {"shift", GV_FLAG_DOUBLE, &o.shift, "S", "shift of the timestep grid (default 5, as the reference; 1 = none)", 0},
         {"render-context", GV_FLAG_DOUBLE, &o.render_context, "P",

@@ -54,6 +54,18 @@ int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_rest
     return 0;
 }
 
+int gv_restore_cli_check_input(const char *clips_dir, const char *clip_file)
+{
+    if (clip_file) {
+        gv_clip_info info;
+        return gv_clip_read_info(clip_file, &info);
+    }
+    gv_manifest m;
+    int rc = gv_manifest_read_dataset(clips_dir, &m);
+    gv_manifest_free(&m);
+    return rc;
+}
+
 int gv_restore_cli_warn_seen(const char *ckpt, const char *clips_dir, const char *clip_file, const gv_restore_options *o)
 {
     if (clip_file) {
@@ -64,8 +76,7 @@ int gv_restore_cli_warn_seen(const char *ckpt, const char *clips_dir, const char
         return gv_warn_if_trained_on(ckpt, info.id.scene);
     }
     gv_manifest m;
-    int found = 0;
-    if (gv_manifest_read(clips_dir, &m, &found)) return -1;
+    if (gv_manifest_read_dataset(clips_dir, &m)) return -1;
     char seen[GV_CHECKPOINT_SCENES] = "";
     int rc = 0;
     for (int i = 0; rc == 0 && i < m.n_clips; i++) { /* each scene of the clips restore will take, once */
@@ -176,8 +187,9 @@ int cmd_restore(int argc, char **argv)
     if (clip && c.split) return gv_restore_cli_usage("restore", "--split goes with --clips");
 
     o.out_dir = out, o.save_clips = save_clips;
-    gv_restore_session s;
-    int rc = gv_restore_cli_start(&c, &o, &s) || gv_restore_cli_warn_seen(c.ckpt, clips, clip, &o) ? -1 : gv_mkdirs(out);
+    gv_restore_session s = {0}; /* ended below even when the input check fails before start */
+    int rc = gv_restore_cli_check_input(clips, clip) || gv_restore_cli_start(&c, &o, &s) ||
+                     gv_restore_cli_warn_seen(c.ckpt, clips, clip, &o) ? -1 : gv_mkdirs(out);
     if (rc == 0) {
         const char *paths[1] = {clip};
         rc = clip ? gv_restore_files(&s.r, paths, 1, &o) : gv_restore_dataset(&s.r, clips, &o);

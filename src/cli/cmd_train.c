@@ -86,7 +86,7 @@ int cmd_train(int argc, char **argv)
         {"base", GV_FLAG_STRING, &base, "FILE", "the base checkpoint (gaussvid pretrain)", 1},
         {"config", GV_FLAG_STRING, &config, "PRESET|FILE", "check the base against this config and take its variant and LoRA", 0},
         {"vae", GV_FLAG_STRING, &vae, "FILE", "the VAE (default: the one the base names; must be the same)", 0},
-        {"variant", GV_FLAG_STRING, &variant, "V", "ablation: camera=none|early|monolithic|decomposed, anchors=none|first|both, per-frame, lora=R", 0},
+        {"variant", GV_FLAG_STRING, &variant, "V", GV_VARIANT_HELP, 0},
         {"lr-schedule", GV_FLAG_STRING, &schedule, "NAME",
          "after the warm-up: constant (default, the paper's), linear or cosine (both decay to 0 at step S)", 0},
         {"no-curriculum", GV_FLAG_BOOL, &no_curriculum, NULL, "ablation: shuffled clips, all weighted 1", 0},

@@ -291,6 +291,14 @@ static int read_lists(const cJSON *root, const char *path, gv_manifest *m)
     return 0;
 }
 
+int gv_manifest_read_dataset(const char *dir, gv_manifest *m)
+{
+    int found = 0;
+    if (gv_manifest_read(dir, m, &found)) return -1;
+    if (!found) return gv_fail("%s: no manifest.json (not a dataset folder)", dir);
+    return 0;
+}
+
 int gv_manifest_read(const char *dir, gv_manifest *m, int *found)
 {
     char path[4096];

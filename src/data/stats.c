@@ -42,9 +42,7 @@ int gv_dataset_stats_read(const char *dir, gv_dataset_stats *out)
 {
     memset(out, 0, sizeof *out);
     gv_manifest m;
-    int found;
-    if (gv_manifest_read(dir, &m, &found) != 0) return -1;
-    if (!found) return gv_fail("%s: no manifest.json (not a dataset folder?)", dir);
+    if (gv_manifest_read_dataset(dir, &m) != 0) return -1;
     out->params = m.params;
     out->n_runs = m.n_runs;
     out->n_clips = m.n_clips;

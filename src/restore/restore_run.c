@@ -144,10 +144,7 @@ int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore
     gv_latent_set set;
     memset(&set, 0, sizeof set);
     gv_manifest man;
-    int found = 0, rc = 0;
-    gv_manifest_init(&man, NULL);
-    rc = gv_manifest_read(dataset_dir, &man, &found);
-    if (rc == 0 && !found) rc = gv_fail("%s: no manifest.json (not a dataset folder)", dataset_dir);
+    int rc = gv_manifest_read_dataset(dataset_dir, &man);
     if (rc == 0 && o->use_cache) rc = gv_latent_set_load(dataset_dir, o->split, r->vae_path, &r->vae, &r->net.cfg, &set);
     int count = o->use_cache ? set.count : man.n_clips;
     /* selected[i]: clip i (of the latent set or of the manifest) is restored */
@@ -167,7 +164,8 @@ int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore
         else rc = gv_fail("%s: the manifest lists no %sclips", dataset_dir, what);
     }
     gv_progress bar;
-    gv_progress_start(&bar, "restore", total);
+    int started = rc == 0; /* no 0/0 bar before an error */
+    if (started) gv_progress_start(&bar, "restore", total);
     int done = 0;
     char note[64] = ""; /* o->each's last note */
     for (int i = 0; rc == 0 && i < count; i++) {
@@ -186,7 +184,7 @@ int gv_restore_dataset(gv_restorer *r, const char *dataset_dir, const gv_restore
         if (rc) gv_fail_context("%s", path);
         progress_note(&bar, ++done, note);
     }
-    gv_progress_finish(&bar);
+    if (started) gv_progress_finish(&bar);
     free(selected);
     gv_latent_set_free(&set);
     gv_manifest_free(&man);

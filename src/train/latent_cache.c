@@ -268,9 +268,7 @@ static int load_set(const char *dataset_dir, const char *split, const char *vae_
                     const gv_model_config *cfg, gv_latent_set *out)
 {
     gv_manifest m;
-    int found = 0;
-    if (gv_manifest_read(dataset_dir, &m, &found)) return -1;
-    if (!found) return gv_fail("%s: no manifest.json (not a dataset folder)", dataset_dir);
+    if (gv_manifest_read_dataset(dataset_dir, &m)) return -1;
     uint64_t key = gv_vae_checksum(vae);
     char (*hashes)[20] = NULL;
     int *pending = NULL, n_pending = 0;

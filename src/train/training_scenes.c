@@ -71,9 +71,8 @@ int gv_train_add_scenes(gv_train_state *meta, const char *list)
 int gv_train_record_scenes(gv_train_state *meta, const char *clips_dir, const char *split)
 {
     gv_manifest m;
-    int found = 0;
-    if (gv_manifest_read(clips_dir, &m, &found)) return -1;
-    int rc = found ? 0 : gv_fail("%s: no manifest.json (not a dataset folder)", clips_dir);
+    if (gv_manifest_read_dataset(clips_dir, &m)) return -1;
+    int rc = 0;
     for (int i = 0; rc == 0 && i < m.n_clips; i++)
         if (!split || !strcmp(m.clips[i].id.split, split))
             rc = list_add(meta->scenes, sizeof meta->scenes, m.clips[i].id.scene);

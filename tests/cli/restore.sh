@@ -62,6 +62,14 @@ expect 1 "not a dataset" -- "$G" eval --ckpt "$C" --clips "$A" --quiet
 one_line "no manifest.json"
 expect 1 "missing clip" -- "$G" restore --ckpt "$C" --clip "$T/nothing.safetensors" --out "$T/r" --quiet
 one_line "nothing.safetensors"
+# Without --quiet: a bad input is refused before the checkpoint is loaded (no checkpoint line on
+# stdout, no progress bar), so the one line is all the user sees.
+expect 1 "not a dataset, not quiet" -- "$G" eval --ckpt "$C" --clips "$A"
+one_line "no manifest.json"
+check "nothing on stdout" test ! -s "$T/out"
+expect 1 "not a clip, not quiet" -- "$G" restore --ckpt "$C" --clip "$T/vae.safetensors" --out "$T/r"
+one_line "vae.safetensors"
+check "nothing on stdout" test ! -s "$T/out"
 
 # The identity check: restored = baseline, exactly, in the table and the JSON.
 expect 0 "identity" -- "$G" eval --ckpt "$C" --clips "$D" --identity --json "$T/identity.json" --quiet --threads 1
