@@ -8,6 +8,7 @@
 #include "gaussvid/report.h"
 
 #include <stdio.h>
+#include <string.h>
 
 /* "better by 0.12 dB", "worse by 0.04 dB" or "unchanged" (below 0.005 dB, the table's rounding). */
 static void change_words(double change, char *out, size_t size)
@@ -47,6 +48,10 @@ static void run_summary(FILE *out, const char *dir, const report_run *run)
         change_words(run->means[MODEL_REFINED].psnr - run->means[MODEL_SPARSE].psnr, refined, sizeof refined);
         fprintf(out, "  against the sparse renders the restored frames are %s, the refined model's %s\n", restored,
                 refined);
+        if (run->restorer.present && !strcmp(run->restorer.gate, "closed"))
+            fprintf(out, "  the adaptation's gate is closed (its held-back views did not gain): the renders were kept\n");
+        else if (run->restorer.present && !strcmp(run->restorer.gate, "open"))
+            fprintf(out, "  the adaptation's gate is open (its held-back views gained): the renders were restored\n");
         if (run->has_all_held_out && run->all_held_out[MODEL_SPARSE].frames > run->means[MODEL_SPARSE].frames)
             fprintf(out, "  all %d held-out views (also those after the last training view): sparse %.2f, refined %.2f dB\n",
                     run->all_held_out[MODEL_SPARSE].frames, run->all_held_out[MODEL_SPARSE].psnr,
@@ -65,7 +70,9 @@ int gv_report_summary(const char *dir, FILE *out)
     if (gv_path_join(path, sizeof path, dir, "metrics.json") != 0) return -1;
     report_metrics m;
     if (report_metrics_read(path, &m) != 0) return -1;
-    fprintf(out, "\n%s, restored by %s:\n", m.scene, m.restorer.present ? m.restorer.checkpoint : "(no restorer recorded)");
+    int adapted = m.restorer.present && !strcmp(m.restorer.kind, "scene");
+    fprintf(out, "\n%s, restored by %s%s:\n", m.scene, m.restorer.present ? m.restorer.checkpoint : "(no restorer recorded)",
+            adapted ? " adapted to the scene" : "");
     for (int i = 0; i < m.n_runs; i++) run_summary(out, dir, &m.runs[i]);
     where(out, "report", dir, "report.html");
     where(out, "numbers", dir, "metrics.json");

@@ -240,6 +240,10 @@ assert d['restorer']['kind'] == 'scene' and d['restorer']['gate'] == r['gate'] a
 if grep -q "gate is closed" "$T/out"; then
     check "a closed gate keeps the renders" cmp -s SC/n6/frames/render/frame_00001.png SC/n6/frames/restored/frame_00001.png
 fi
+# ... to the end: the summary says the restorer was adapted and what its gate decided.
+expect 0 "a scene checkpoint, to the end" -- "$G" reconstruct "${RC[@]}" --ckpt A/n6/restorer.safetensors --out SC
+has "adapted to the scene:"
+has "the adaptation's gate is"
 expect 1 "stop after adapt without --adapt" -- "$G" reconstruct "${RC[@]}" --out A --stop-after adapt
 one_line "--stop-after adapt: the adapt stage runs only with --adapt"
 
