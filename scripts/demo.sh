@@ -29,8 +29,11 @@
 #   GV_DEMO_REFINE_ITERS    refinement iterations [1000, reconstruct's default]
 #   GV_DEMO_CKPT            the restorer [models/gaussvid-small.safetensors]
 #   GV_DEMO_ADAPT           1: adapt the restorer to the room first (reconstruct --adapt: the
-#                           issue-20 path, adaptation and its gate; about 23 more CPU-minutes at
-#                           n = 16, estimated from its stages: untimed end to end) [0]
+#                           issue-20 path, adaptation and its gate). Timed to the end on the idle
+#                           machine (27 Nov): 14 min 10 s wall, 1540 CPU-s, peak RSS 808 MiB, of
+#                           which the adaptation 671 s wall / 1209 CPU-s; its gate closed, so the
+#                           45 clips were kept as rendered (an open gate adds the restoration's
+#                           8 minutes) [0]
 set -euo pipefail
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} # threads sleep while they wait (docs/BENCHMARKS.md)
 gaussvid=${1:-build/gaussvid}
