@@ -41,10 +41,14 @@ static void restorer_table(report_text *t, const report_restorer *r, const char 
     text_escaped(t, r->checkpoint[0] ? r->checkpoint : "(none)");
     text_append(t, "</td></tr>\n<tr><th>kind</th><td>");
     text_escaped(t, r->kind[0] ? r->kind : "(unknown)");
-    text_append(t, !strcmp(r->kind, "scene") ? " (adapted to this scene from its own training views)"
+    /* reconstruct --adapt: the document's restorer is the base, adapted once per n */
+    int per_n = !strcmp(r->kind, "scene") && !r->gate[0];
+    text_append(t, per_n ? " (the checkpoint above, adapted to this scene at each n from its own training views)"
+                   : !strcmp(r->kind, "scene") ? " (adapted to this scene from its own training views)"
                    : !strcmp(r->kind, "cross-scene") ? " (trained on other scenes, used as released)" : "");
     text_append(t, "</td></tr>\n<tr><th>gate</th><td>");
-    if (!r->gate[0]) text_append(t, "none (only a scene checkpoint has one)");
+    if (per_n) text_append(t, "one per n: see each interval's restorer below");
+    else if (!r->gate[0]) text_append(t, "none (only a scene checkpoint has one)");
     else {
         text_escaped(t, r->gate);
         text_append(t, !strcmp(r->gate, "open") ? ": the scene's held-back pairs said restoring helps, so the restored frames are used"

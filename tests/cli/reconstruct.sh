@@ -244,6 +244,9 @@ fi
 expect 0 "a scene checkpoint, to the end" -- "$G" reconstruct "${RC[@]}" --ckpt A/n6/restorer.safetensors --out SC
 has "adapted to the scene:"
 has "the adaptation's gate is"
+# --adapt to the end: the report's restorer is the base adapted per n, with one gate per n.
+expect 0 "adapt, to the end" -- "$G" reconstruct "${RC[@]}" --adapt --adapt-config tiny1.json --adapt-steps 2 --out A
+check "the report: one gate per n" grep -q "one per n: see each interval" A/report.html
 expect 1 "stop after adapt without --adapt" -- "$G" reconstruct "${RC[@]}" --out A --stop-after adapt
 one_line "--stop-after adapt: the adapt stage runs only with --adapt"
 
