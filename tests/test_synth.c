@@ -487,6 +487,49 @@ static void test_bad_parameters(const char *tmp)
     CHECK_FAILS_WITH(gv_synth_write(&p, ""), "bad output folder");
 }
 
+/* Mean absolute difference between horizontal neighbours: the image's fine detail. */
+static double neighbour_difference(const gv_image *im)
+{
+    double sum = 0;
+    for (int y = 0; y < im->height; y++)
+        for (int x = 0; x + 1 < im->width; x++)
+            for (int c = 0; c < 3; c++) {
+                const uint8_t *px = im->pixels + ((size_t)y * im->width + x) * 3 + c;
+                sum += abs((int)px[3] - (int)px[0]);
+            }
+    return sum / ((double)im->height * (im->width - 1) * 3);
+}
+
+/* --texture-detail: the same room and cameras, more fine detail in every frame; 0 is the
+ * default room. */
+static void test_texture_detail(void)
+{
+    gv_synth_params p;
+    tiny_params(&p, 1);
+    p.width = 128, p.height = 72, p.n_frames = 4;
+    gv_synth_world *plain = NULL, *detailed = NULL;
+    CHECK(gv_synth_build(&p, &plain) == 0);
+    p.texture_detail = 1;
+    CHECK(gv_synth_build(&p, &detailed) == 0);
+    if (!plain || !detailed) return;
+    for (int f = 0; f < p.n_frames; f += 3) {
+        gv_camera a, b;
+        gv_image x, y;
+        CHECK(gv_synth_camera(plain, f, &a) == 0 && gv_synth_camera(detailed, f, &b) == 0);
+        CHECK(!memcmp(&a, &b, sizeof a));
+        if (gv_synth_render(plain, f, &x) || gv_synth_render(detailed, f, &y)) { CHECK(0); break; }
+        double dx = neighbour_difference(&x), dy = neighbour_difference(&y);
+        printf("frame %d: neighbour difference %.2f levels plain, %.2f with texture detail 1\n", f, dx, dy);
+        CHECK(dy > 1.1 * dx);
+        gv_image_free(&x), gv_image_free(&y);
+    }
+    gv_synth_free(plain), gv_synth_free(detailed);
+    p.texture_detail = 1.5;
+    CHECK_FAILS_WITH(gv_synth_check_params(&p), "--texture-detail 1.5");
+    p.texture_detail = -0.1;
+    CHECK_FAILS_WITH(gv_synth_check_params(&p), "--texture-detail -0.1");
+}
+
 int main(void)
 {
     const char *tmp = check_tmp_dir();
@@ -500,5 +543,6 @@ int main(void)
     test_colour_agreement(tmp);
     for (uint64_t seed = 11; seed <= 13; seed++) test_path(seed);
     test_frame_range();
+    test_texture_detail();
     return check_summary();
 }

@@ -19,6 +19,9 @@ typedef struct {
     int n_frames;      /* 2 .. GV_SYNTH_MAX_FRAMES */
     int width, height; /* 16 .. GV_SYNTH_MAX_SIZE each */
     int samples;       /* K: pixels on edges get a K x K stratified grid (1 .. 8) */
+    double texture_detail; /* 0 .. 1: non-repeating noise at several scales on every surface's
+                              albedo, so that feature matching (COLMAP) finds unique points;
+                              0 (the default) leaves the rooms as they always were */
 } gv_synth_params;
 
 #define GV_SYNTH_MAX_FRAMES 100000
@@ -26,7 +29,7 @@ typedef struct {
 
 typedef struct gv_synth_world gv_synth_world;
 
-/* The defaults: seed 1, 160 frames, 256x144, samples 3. */
+/* The defaults: seed 1, 160 frames, 256x144, samples 3, no texture detail. */
 void gv_synth_default_params(gv_synth_params *p);
 /* Fails with a message naming the bad parameter. */
 int gv_synth_check_params(const gv_synth_params *p);

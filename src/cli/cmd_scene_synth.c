@@ -38,6 +38,8 @@ int cmd_scene_synth(int argc, char **argv)
         {"frames", GV_FLAG_INT, &p.n_frames, "N", "number of frames, 2 or more (default 160)", 0},
         {"size", GV_FLAG_STRING, &size, "WxH", "image size in pixels, 16 to 4096 each (default 256x144)", 0},
         {"samples", GV_FLAG_INT, &p.samples, "K", "K x K samples on edge pixels, 1 to 8 (default 3)", 0},
+        {"texture-detail", GV_FLAG_DOUBLE, &p.texture_detail, "A",
+         "0 to 1: non-repeating noise on every surface, for testing feature matching (COLMAP); default 0", 0},
     };
     const gv_command_spec spec = {
         .command = "scene synth",

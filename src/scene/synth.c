@@ -14,6 +14,7 @@ void gv_synth_default_params(gv_synth_params *p)
     p->width = 256;
     p->height = 144;
     p->samples = 3;
+    p->texture_detail = 0;
 }
 
 int gv_synth_check_params(const gv_synth_params *p)
@@ -27,6 +28,8 @@ int gv_synth_check_params(const gv_synth_params *p)
         return gv_fail("scene synth: --size %dx%d: the aspect ratio must be within 1:4 and 4:1", p->width, p->height);
     if (p->samples < 1 || p->samples > 8)
         return gv_fail("scene synth: --samples %d is out of range (1 to 8)", p->samples);
+    if (!(p->texture_detail >= 0 && p->texture_detail <= 1))
+        return gv_fail("scene synth: --texture-detail %g is out of range (0 to 1)", p->texture_detail);
     return 0;
 }
 
@@ -97,15 +100,17 @@ int gv_synth_describe(const gv_synth_world *w, char *out, size_t size)
         spheres += w->lights[i].kind == SY_LIGHT_SPHERE;
         panels += w->lights[i].kind == SY_LIGHT_RECT;
     }
+    char detail[64] = ""; /* said only when asked for, so default rooms describe themselves as before */
+    if (w->params.texture_detail > 0) snprintf(detail, sizeof detail, ", texture detail %g", w->params.texture_detail);
     int n = snprintf(out, size,
-        "seed %llu, %d frames of %dx%d, %d samples per edge pixel side\n"
+        "seed %llu, %d frames of %dx%d, %d samples per edge pixel side%s\n"
         "room %.2f x %.2f x %.2f m; walls %s, floor %s; %d windows, %d doors\n"
         "%d objects: %s\n"
         "lights: %d ceiling panels, %d bulbs or globes, %s\n"
         "camera: %s path, %.2f m long, %.0f degrees of turn; fx = fy = %.4f px, 65.5 degrees across\n"
         "%d primitives, %ld lightmap texels of %.3f m; exposure %.4f\n",
         (unsigned long long)w->params.seed, w->params.n_frames, w->params.width, w->params.height, w->params.samples,
-        w->room_hi.x - w->room_lo.x, w->room_hi.y - w->room_lo.y, w->room_hi.z,
+        detail, w->room_hi.x - w->room_lo.x, w->room_hi.y - w->room_lo.y, w->room_hi.z,
         sy_material_names[w->materials[w->wall_material].kind], sy_material_names[w->materials[w->floor_material].kind],
         w->n_openings - doors, doors, w->n_objects, w->n_objects ? w->object_names : "none", panels, spheres, moods,
         w->path_mode == 0 ? "orbit" : "walk", w->path_length, w->path_turn * 180 / M_PI, w->fx, w->n_prims,

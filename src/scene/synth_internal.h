@@ -124,6 +124,9 @@ typedef struct {
 extern const char *const sy_material_names[SY_MAT_COUNT];
 /* Diffuse albedo (linear RGB) at a surface seen through a footprint (metres). */
 sy_vec sy_material_albedo(const sy_material *m, const sy_surface *s, double footprint);
+/* The albedo times 1 + amount x band-limited noise of the point in space (periods 33 cm down
+ * to 2 cm): detail that never repeats, for scenes meant for feature matching. */
+sy_vec sy_albedo_detail(sy_vec albedo, sy_vec p, double footprint, double amount, uint32_t seed);
 /* The 2D-pattern kinds (bricks, tiles, planks, ...) and the solid ones, in two files. */
 sy_vec sy_texture_pattern(const sy_material *m, const sy_surface *s, double w);
 sy_vec sy_texture_solid(const sy_material *m, const sy_surface *s, double w);

@@ -86,6 +86,7 @@ sy_vec sy_radiance(const gv_synth_world *w, sy_vec o, sy_vec d, double pixel_ang
     /* the pixel's footprint on the surface, widened at grazing angles */
     double footprint = hit.t * pixel_angle / fmax(fabs(sy_dot(s.n, d)), 0.2);
     sy_vec albedo = sy_material_albedo(m, &s, footprint);
+    if (w->params.texture_detail > 0) albedo = sy_albedo_detail(albedo, s.p, footprint, w->params.texture_detail, m->seed);
     return sy_scale(sy_mul(albedo, sy_irradiance(w, &s)), 1.0 / M_PI);
 }
 

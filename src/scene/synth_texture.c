@@ -146,6 +146,13 @@ sy_vec sy_texture_pattern(const sy_material *m, const sy_surface *s, double w)
     }
 }
 
+sy_vec sy_albedo_detail(sy_vec albedo, sy_vec p, double footprint, double amount, uint32_t seed)
+{
+    double noise = sy_fbm3(p, 3.0, 5, footprint, seed ^ 0x85ebca6bu);
+    sy_vec c = sy_scale(albedo, 1.0 + amount * noise);
+    return sy_v(sy_clamp(c.x, 0, 0.9), sy_clamp(c.y, 0, 0.9), sy_clamp(c.z, 0, 0.9));
+}
+
 sy_vec sy_material_albedo(const sy_material *m, const sy_surface *s, double footprint)
 {
     if (m->kind == SY_MAT_EMITTER) return sy_v(0, 0, 0);
