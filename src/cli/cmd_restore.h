@@ -42,11 +42,11 @@ int gv_restore_cli_gate(const char *ckpt, int compose_given, gv_restore_options 
  * this returns. */
 int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_restore_session *s);
 void gv_restore_cli_end(gv_restore_session *s);
-/* One warning line for each scene among the clips o selects (of the dataset clips_dir, or the
- * one clip_file) that the checkpoint records among its training scenes (checkpoint.h). */
 /* Fails (one line) when the clips folder is not a dataset or the clip file not a clip, so that a
  * bad input is refused before the checkpoint is loaded. */
 int gv_restore_cli_check_input(const char *clips_dir, const char *clip_file);
+/* One warning line for each scene among the clips o selects (of the dataset clips_dir, or the
+ * one clip_file) that the checkpoint records among its training scenes (checkpoint.h). */
 int gv_restore_cli_warn_seen(const char *ckpt, const char *clips_dir, const char *clip_file, const gv_restore_options *o);
 /* Prints "usage error" as the commands do and returns 2. */
 int gv_restore_cli_usage(const char *command, const char *message);

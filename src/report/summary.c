@@ -48,9 +48,10 @@ static void run_summary(FILE *out, const char *dir, const report_run *run)
         change_words(run->means[MODEL_REFINED].psnr - run->means[MODEL_SPARSE].psnr, refined, sizeof refined);
         fprintf(out, "  against the sparse renders the restored frames are %s, the refined model's %s\n", restored,
                 refined);
-        if (run->restorer.present && !strcmp(run->restorer.gate, "closed"))
+        const char *gate = run->restorer.present ? run->restorer.gate : "";
+        if (!strcmp(gate, "closed"))
             fprintf(out, "  the adaptation's gate is closed (its held-back views did not gain): the renders were kept\n");
-        else if (run->restorer.present && !strcmp(run->restorer.gate, "open"))
+        else if (!strcmp(gate, "open"))
             fprintf(out, "  the adaptation's gate is open (its held-back views gained): the renders were restored\n");
         if (run->has_all_held_out && run->all_held_out[MODEL_SPARSE].frames > run->means[MODEL_SPARSE].frames)
             fprintf(out, "  all %d held-out views (also those after the last training view): sparse %.2f, refined %.2f dB\n",

@@ -146,11 +146,16 @@ sy_vec sy_texture_pattern(const sy_material *m, const sy_surface *s, double w)
     }
 }
 
+/* Albedos stay below 0.9, as real surfaces do. */
+static sy_vec clamp_albedo(sy_vec c)
+{
+    return sy_v(sy_clamp(c.x, 0, 0.9), sy_clamp(c.y, 0, 0.9), sy_clamp(c.z, 0, 0.9));
+}
+
 sy_vec sy_albedo_detail(sy_vec albedo, sy_vec p, double footprint, double amount, uint32_t seed)
 {
     double noise = sy_fbm3(p, 3.0, 5, footprint, seed ^ 0x85ebca6bu);
-    sy_vec c = sy_scale(albedo, 1.0 + amount * noise);
-    return sy_v(sy_clamp(c.x, 0, 0.9), sy_clamp(c.y, 0, 0.9), sy_clamp(c.z, 0, 0.9));
+    return clamp_albedo(sy_scale(albedo, 1.0 + amount * noise));
 }
 
 sy_vec sy_material_albedo(const sy_material *m, const sy_surface *s, double footprint)
@@ -159,6 +164,5 @@ sy_vec sy_material_albedo(const sy_material *m, const sy_surface *s, double foot
     sy_vec c = sy_texture_pattern(m, s, footprint);
     /* dirt and wear at the scale of a metre, the same on every kind */
     double dirt = sy_fbm3(s->p, 0.7, 3, footprint, m->seed ^ 0x9e3779b9u);
-    c = sy_scale(c, 1.0 + 0.12 * m->variation * dirt);
-    return sy_v(sy_clamp(c.x, 0, 0.9), sy_clamp(c.y, 0, 0.9), sy_clamp(c.z, 0, 0.9));
+    return clamp_albedo(sy_scale(c, 1.0 + 0.12 * m->variation * dirt));
 }
