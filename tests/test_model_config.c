@@ -279,6 +279,17 @@ static void test_malformed(void)
     expect_bad("lora_cross", r, "lora.targets: \"cross_attn.q\" matches no layer");
     r = tiny_json(), set(sec(r, "lora"), "alpha", cJSON_CreateNumber(-1));
     expect_bad("lora_alpha", r, "lora.alpha: must be positive");
+    /* 1e999 reads as infinity, which could not be written back (a fuzz finding): refused even
+     * where it would be unused (rank 0) */
+    r = tiny_json(), set(sec(r, "lora"), "rank", cJSON_CreateNumber(0)), set(sec(r, "lora"), "alpha", cJSON_CreateNumber(12345));
+    {
+        char *text = cJSON_Print(r), *at = strstr(text, "12345");
+        CHECK(at != NULL);
+        if (at) memcpy(at, "1e999", 5);
+        expect_bad_text("infinite_alpha", text, "lora.alpha: inf is not a finite number");
+        free(text);
+        cJSON_Delete(r);
+    }
     /* Text-level damage. */
     expect_bad_text("not_json", "{\n\"dit\": {\"dim\": 32,,\n}}\n", "line 2: not valid JSON");
     expect_bad_text("array_root", "[1, 2]", "a model config must be a JSON object, got an array");

@@ -77,6 +77,8 @@ static int get_double(reader *r, const cJSON *obj, const char *name, int require
     if (lookup(r, obj, name, required, &j)) return -1;
     if (j && gv_json_number(obj, name, -HUGE_VAL, HUGE_VAL, 0, out))
         return gv_config_bad(r->src, full_key(r, name), "expected a number, got %s", gv_json_type(j));
+    /* 1e999 parses as infinity, which the writer could not write back (fuzz_config) */
+    if (j && !isfinite(*out)) return gv_config_bad(r->src, full_key(r, name), "%g is not a finite number", *out);
     return 0;
 }
 
@@ -118,6 +120,8 @@ static int get_list(reader *r, const cJSON *obj, const char *name, int required,
             ((int *)out)[i] = cJSON_IsTrue(e) ? 1 : 0;
         } else {
             if (!cJSON_IsNumber(e)) return gv_config_bad(r->src, full_key(r, name), "entry %d: expected a number, got %s", i, gv_json_type(e));
+            if (!isfinite(e->valuedouble))
+                return gv_config_bad(r->src, full_key(r, name), "entry %d: %g is not a finite number", i, e->valuedouble);
             ((double *)out)[i] = e->valuedouble;
         }
     }
