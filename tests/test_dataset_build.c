@@ -63,13 +63,17 @@ static void make_scene(const char *dir, int seed)
 
 typedef struct { int trains, renders, fail_render_at; } fake_state;
 
-static int fake_train(void *ctx, const gv_scene *scene, int interval, int iters, int densify, uint64_t seed,
-                      void **model)
+static int fake_train(void *ctx, const gv_scene *scene, const int *views, int n_views, int iters, int densify,
+                      uint64_t seed, void **model)
 {
     fake_state *st = ctx;
     st->trains++;
+    int n = views[1] - views[0];
+    for (int i = 0; i < n_views; i++) /* the training views, and only those: 0, n, 2n, ... */
+        if (views[i] != i * n) return gv_fail("fake: view %d of the list is frame %d, not %d", i, views[i], i * n);
+    if (n_views != (scene->n_frames - 1) / n + 1) return gv_fail("fake: %d training views at n = %d", n_views, n);
     int *m = malloc(sizeof *m);
-    *m = interval;
+    *m = n;
     *model = m;
     return 0;
 }

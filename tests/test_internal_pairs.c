@@ -56,28 +56,32 @@ static void make_scene(const char *dir, int frames)
 }
 
 /* ---- the stand-in simulator ------------------------------------------------------------- */
+enum { MAX_TRAINS = 8 };
 typedef struct {
     int trains;
-    int trained_on[2][FRAMES]; /* per training: 1 for the scene frames it trained on */
-    int intervals[2];
+    int trained_on[MAX_TRAINS][FRAMES]; /* per training: 1 for the scene frames it trained on */
+    uint64_t seeds[MAX_TRAINS];
     int densify;               /* the density control of the last training */
 } fake_state;
 
 /* The scene frame a camera shows, from its image name. */
 static int frame_of(const gv_camera *c) { return atoi(c->name + strlen("frame_")); }
 
-static int fake_train(void *ctx, const gv_scene *scene, int interval, int iters, int densify, uint64_t seed,
-                      void **model)
+/* The model is the first training view (a multiple of N) its list lacks: it tells the subsets apart. */
+static int fake_train(void *ctx, const gv_scene *scene, const int *views, int n_views, int iters, int densify,
+                      uint64_t seed, void **model)
 {
     fake_state *st = ctx;
     st->densify = densify;
-    if (st->trains < 2) {
-        st->intervals[st->trains] = interval;
-        for (int f = 0; f < scene->n_frames; f += interval) st->trained_on[st->trains][frame_of(&scene->cameras[f])] = 1;
+    int *m = malloc(sizeof *m);
+    *m = -1;
+    for (int i = 0, want = 0; i <= n_views && *m < 0; i++, want += N)
+        if (i == n_views || views[i] != want) *m = want;
+    if (st->trains < MAX_TRAINS) {
+        st->seeds[st->trains] = seed;
+        for (int i = 0; i < n_views; i++) st->trained_on[st->trains][frame_of(&scene->cameras[views[i]])] = 1;
     }
     st->trains++;
-    int *m = malloc(sizeof *m);
-    *m = frame_of(&scene->cameras[0]); /* the subset's first view */
     *model = m;
     return 0;
 }
@@ -114,20 +118,47 @@ static void test_plan(void)
     gv_internal_clip c[FRAMES];
     int count = 0;
     CHECK(gv_internal_views(20, 3) == 7 && gv_internal_views(19, 3) == 7 && gv_internal_views(18, 3) == 6);
-    CHECK(gv_internal_plan(20, 3, c, &count) == 0 && count == 5);
+    CHECK(gv_internal_plan(20, 3, 2, c, &count) == 0 && count == 5);
     /* the uniform positions of a 2n = 6 clip (round half to even), from the subset's first view */
     const int want[5][5] = {{0, 2, 3, 4, 6}, {3, 5, 6, 7, 9}, {6, 8, 9, 10, 12}, {9, 11, 12, 13, 15}, {12, 14, 15, 16, 18}};
     for (int i = 0; i < 5; i++) {
-        CHECK(c[i].view == i + 1 && c[i].parity == i % 2);
+        CHECK(c[i].view == i + 1 && c[i].subset == i % 2);
         CHECK(!memcmp(c[i].frames, want[i], sizeof want[i]));
         CHECK(c[i].frames[2] == 3 * (i + 1));  /* the left-out training view, in the middle */
         CHECK(c[i].frames[1] % 3 && c[i].frames[3] % 3); /* the others are held out at n */
     }
-    CHECK(gv_internal_plan(9, 2, c, &count) == 0 && count == 3);
-    CHECK(!memcmp(c[1].frames, ((int[]){2, 3, 4, 5, 6}), sizeof c[1].frames) && c[1].parity == 1);
-    CHECK(gv_internal_plan(160, 26, c, &count) == 0 && count == 5); /* the shared scenes at n = 26: 7 views */
+    CHECK(gv_internal_plan(9, 2, 2, c, &count) == 0 && count == 3);
+    CHECK(!memcmp(c[1].frames, ((int[]){2, 3, 4, 5, 6}), sizeof c[1].frames) && c[1].subset == 1);
+    CHECK(gv_internal_plan(160, 26, 2, c, &count) == 0 && count == 5); /* the shared scenes at n = 26: 7 views */
     CHECK(c[0].frames[2] == 26 && c[0].frames[1] == 13 && c[0].frames[3] == 39);
-    CHECK_FAILS_WITH(gv_internal_plan(16, 4, c, &count), "need at least 5 (at least 17 frames)");
+    CHECK_FAILS_WITH(gv_internal_plan(16, 4, 2, c, &count), "need at least 5 (at least 17 frames)");
+    CHECK_FAILS_WITH(gv_internal_plan(20, 3, 1, c, &count), "need at least 2");
+    /* more subsets: the same clips, rendered by subset (k - 1) mod K */
+    gv_internal_clip c3[FRAMES];
+    CHECK(gv_internal_plan(20, 3, 3, c3, &count) == 0 && count == 5);
+    for (int i = 0; i < 5; i++) CHECK(c3[i].subset == i % 3 && !memcmp(c3[i].frames, want[i], sizeof want[i]));
+    CHECK(gv_internal_plan(20, 3, 99, c3, &count) == 0 && count == 5);
+    for (int i = 0; i < 5; i++) CHECK(c3[i].subset == i);
+
+    /* which views each subset holds (7 views 0..6 at n = 3): every view but one residue class */
+    int v[FRAMES], nv;
+    CHECK(gv_internal_subset_views(20, 3, 2, 0, v, &nv) == 0 && nv == 4 && !memcmp(v, ((int[]){0, 6, 12, 18}), 4 * sizeof(int)));
+    CHECK(gv_internal_subset_views(20, 3, 2, 1, v, &nv) == 0 && nv == 3 && !memcmp(v, ((int[]){3, 9, 15}), 3 * sizeof(int)));
+    CHECK(gv_internal_subset_views(20, 3, 3, 0, v, &nv) == 0 && nv == 5 && !memcmp(v, ((int[]){0, 6, 9, 15, 18}), 5 * sizeof(int)));
+    CHECK(gv_internal_subset_views(20, 3, 3, 1, v, &nv) == 0 && nv == 5 && !memcmp(v, ((int[]){0, 3, 9, 12, 18}), 5 * sizeof(int)));
+    CHECK(gv_internal_subset_views(20, 3, 3, 2, v, &nv) == 0 && nv == 4 && !memcmp(v, ((int[]){3, 6, 12, 15}), 4 * sizeof(int)));
+    /* K >= T: view 3 of 7 alone left out */
+    CHECK(gv_internal_subset_views(20, 3, 7, 2, v, &nv) == 0 && nv == 6 && !memcmp(v, ((int[]){0, 3, 6, 12, 15, 18}), 6 * sizeof(int)));
+    for (int k = 1; k <= 5; k++) /* every clip's anchors are in the subset that renders it, its middle is not */
+        for (int K = 2; K <= 9; K++) {
+            CHECK(gv_internal_plan(20, 3, K, c3, &count) == 0);
+            CHECK(gv_internal_subset_views(20, 3, K, c3[k - 1].subset, v, &nv) == 0);
+            int has[3] = {0, 0, 0};
+            for (int i = 0; i < nv; i++)
+                for (int f = 0; f < 3; f++) has[f] |= v[i] == c3[k - 1].frames[2 * f];
+            CHECK(has[0] && !has[1] && has[2]);
+        }
+    CHECK_FAILS_WITH(gv_internal_subset_views(20, 3, 3, 3, v, &nv), "subset 3 of 3");
     CHECK_FAILS_WITH(gv_internal_check(20, 5), "4 training views at n = 5");
     CHECK_FAILS_WITH(gv_internal_check(20, 1), "need n >= 2");
 }
@@ -213,7 +244,7 @@ static int frame_equals_render(const uint8_t *pixels, int frame, int first)
     return 1;
 }
 
-static void check_clips(const char *out, const char *scene_dir)
+static void check_clips(const char *out, int subsets)
 {
     gv_manifest m;
     int found = 0;
@@ -223,7 +254,8 @@ static void check_clips(const char *out, const char *scene_dir)
     CHECK(m.params.densify == GV_DENSIFY_MCMC); /* recorded as asked (not the default) */
     gv_internal_clip plan[FRAMES];
     int count;
-    CHECK(gv_internal_plan(FRAMES, N, plan, &count) == 0 && count == 5);
+    CHECK(gv_internal_plan(FRAMES, N, subsets, plan, &count) == 0 && count == 5);
+    CHECK(m.params.subsets == (subsets == 2 ? 0 : subsets)); /* recorded when not 2 */
     for (int i = 0; i < m.n_clips && i < count; i++) {
         char path[4400], want[64];
         snprintf(want, sizeof want, "clips/room_n06_%03d.safetensors", i);
@@ -232,8 +264,9 @@ static void check_clips(const char *out, const char *scene_dir)
         gv_clip c;
         CHECK(gv_clip_read(path, &c) == 0);
         const gv_clip_info *info = &c.info;
-        int first = plan[i].parity * N;
-        CHECK(info->id.n == 2 * N && info->offset == first && info->iters == 7 && !strcmp(info->id.split, "train"));
+        int view = i + 1, first = (view % subsets) * N; /* the first view that view k's subset lacks */
+        CHECK(info->id.n == 2 * N && info->offset == i % 2 * N && info->iters == 7 && !strcmp(info->id.split, "train"));
+        CHECK(info->subsets == (subsets == 2 ? 0 : subsets));
         CHECK(!memcmp(info->frames, plan[i].frames, sizeof info->frames));
         /* masked: the two held-out frames; the left-out view in the middle has ground truth */
         CHECK(!info->no_target[0] && info->no_target[1] && !info->no_target[2] && info->no_target[3] && !info->no_target[4]);
@@ -278,13 +311,13 @@ static void test_build(const char *base)
     memset(&state, 0, sizeof state);
     CHECK(gv_internal_build(&scene, &o, &r) == 0);
     CHECK(r.clips == 5 && r.subsets_trained == 2 && state.trains == 2);
-    CHECK(state.intervals[0] == 2 * N && state.intervals[1] == 2 * N);
     CHECK(state.densify == GV_DENSIFY_MCMC); /* passed through to the simulator */
+    CHECK(state.seeds[1] == (state.seeds[0] ^ 0x9E3779B97F4A7C15ull));
     for (int f = 0; f < FRAMES; f++) { /* every other training view, once per offset */
         CHECK(state.trained_on[0][f] == (f % (2 * N) == 0));
         CHECK(state.trained_on[1][f] == (f % (2 * N) == N));
     }
-    check_clips(out, scene_dir);
+    check_clips(out, 2);
 
     /* built: nothing trained again */
     memset(&state, 0, sizeof state);
@@ -304,7 +337,7 @@ static void test_build(const char *base)
     CHECK(gv_read_file(clip1, &a, &na) == 0 && gv_read_file(saved, &b, &nb) == 0);
     CHECK(na == nb && !memcmp(a, b, na)); /* the same bytes again */
     free(a), free(b);
-    check_clips(out, scene_dir);
+    check_clips(out, 2);
 
     /* one folder, one build */
     gv_internal_options other = o;
@@ -335,6 +368,46 @@ static void test_build(const char *base)
     gv_scene_free(&scene);
 }
 
+/* Three subsets: each leaves out every third view; the folder records K and is refused to
+ * another K; clips of another K are not taken over when a build resumes. */
+static void test_build_subsets(const char *base)
+{
+    char scene_dir[4400], out[4400], path[4400];
+    snprintf(scene_dir, sizeof scene_dir, "%s/k3/room", base);
+    make_scene(scene_dir, FRAMES);
+    gv_scene scene;
+    CHECK(gv_scene_load(scene_dir, NULL, &scene) == 0);
+    snprintf(out, sizeof out, "%s/k3/pairs", base);
+    gv_internal_options o = {.interval = N, .iters = 7, .subsets = 3, .densify = GV_DENSIFY_MCMC, .seed = 4,
+                             .simulator = &fake, .out_dir = out};
+    gv_internal_result r;
+    memset(&state, 0, sizeof state);
+    CHECK(gv_internal_build(&scene, &o, &r) == 0 && r.clips == 5 && r.subsets_trained == 3 && state.trains == 3);
+    for (int j = 0; j < 3; j++) {
+        for (int v = 0; v < 7; v++) CHECK(state.trained_on[j][v * N] == (v % 3 != (j + 1) % 3));
+        CHECK(state.seeds[j] == (state.seeds[0] ^ ((uint64_t)j * 0x9E3779B97F4A7C15ull)));
+    }
+    check_clips(out, 3);
+    gv_internal_options two = o;
+    two.subsets = 2;
+    CHECK_FAILS_WITH(gv_internal_build(&scene, &two, &r), "internal pairs of room at n = 3 with 7 iterations, 2 subsets");
+    /* an interrupted K = 3 build (no manifest) resumed with K = 2: every clip is rebuilt */
+    snprintf(path, sizeof path, "%s/manifest.json", out);
+    CHECK(remove(path) == 0);
+    memset(&state, 0, sizeof state);
+    CHECK(gv_internal_build(&scene, &two, &r) == 0 && r.subsets_trained == 2);
+    check_clips(out, 2);
+    /* K beyond the views: one run per interior view */
+    snprintf(out, sizeof out, "%s/k3/loo", base);
+    o.subsets = 99;
+    memset(&state, 0, sizeof state);
+    CHECK(gv_internal_build(&scene, &o, &r) == 0 && r.subsets_trained == 5 && state.trains == 5);
+    for (int j = 0; j < 5; j++)
+        for (int v = 0; v < 7; v++) CHECK(state.trained_on[j][v * N] == (v != j + 1));
+    check_clips(out, 99);
+    gv_scene_free(&scene);
+}
+
 /* The do-no-harm clips: the same frames and masks as the pairs, all rendered by one model
  * trained on every training view at n. */
 static void test_build_harm(const char *base)
@@ -350,7 +423,7 @@ static void test_build_harm(const char *base)
     gv_internal_result r;
     memset(&state, 0, sizeof state);
     CHECK(gv_internal_build(&scene, &o, &r) == 0);
-    CHECK(r.clips == 5 && r.subsets_trained == 1 && state.trains == 1 && state.intervals[0] == N);
+    CHECK(r.clips == 5 && r.subsets_trained == 1 && state.trains == 1);
     for (int f = 0; f < FRAMES; f++) CHECK(state.trained_on[0][f] == (f % N == 0)); /* every training view */
     gv_manifest m;
     int found = 0;
@@ -358,7 +431,7 @@ static void test_build_harm(const char *base)
     CHECK(m.n_runs == 1 && m.runs[0].id.n == 2 * N && m.n_clips == 5); /* the pairs' metadata */
     gv_internal_clip plan[FRAMES];
     int count;
-    CHECK(gv_internal_plan(FRAMES, N, plan, &count) == 0 && count == 5);
+    CHECK(gv_internal_plan(FRAMES, N, 2, plan, &count) == 0 && count == 5);
     for (int i = 0; i < m.n_clips && i < count; i++) {
         char path[4400], want[64];
         snprintf(want, sizeof want, "clips/room_n06_%03d.safetensors", i);
@@ -367,11 +440,11 @@ static void test_build_harm(const char *base)
         gv_clip c;
         CHECK(gv_clip_read(path, &c) == 0);
         const gv_clip_info *info = &c.info;
-        CHECK(info->id.n == 2 * N && info->offset == plan[i].parity * N);
+        CHECK(info->id.n == 2 * N && info->offset == i % 2 * N);
         CHECK(!memcmp(info->frames, plan[i].frames, sizeof info->frames));
         CHECK(!info->no_target[0] && info->no_target[1] && !info->no_target[2] && info->no_target[3] && !info->no_target[4]);
-        for (int f = 1; f < 4; f++) /* rendered by the full model (its first view is frame 0) */
-            CHECK(frame_equals_render(gv_clip_frame(c.inputs, info, f), info->frames[f], 0));
+        for (int f = 1; f < 4; f++) /* rendered by the full model (it lacks no view: the fake calls it 7 N) */
+            CHECK(frame_equals_render(gv_clip_frame(c.inputs, info, f), info->frames[f], 7 * N));
         CHECK(frame_equals_truth(gv_clip_frame(c.targets, info, 2), info->frames[2]));
         gv_clip_free(&c);
     }
@@ -389,5 +462,6 @@ int main(void)
     test_clip_format(base);
     test_build(base);
     test_build_harm(base);
+    test_build_subsets(base);
     return check_summary();
 }

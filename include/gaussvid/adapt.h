@@ -32,6 +32,9 @@ typedef struct {
     const char *work_dir;            /* NULL: out + ".work" */
     int downscale;                   /* scene images: 1, 2, 4, 8 (as splat train) */
     int iters;                       /* the artifact simulator's iterations per subset */
+    int subsets;                     /* K >= 2 subsets of the training views for the internal pairs
+                                        (internal_pairs.h): 2 leaves every other view out, T (the
+                                        training views) or more each interior view alone */
     int densify;                     /* its density control (gv_splat_densify_mode): as the
                                         user's sparse model was trained */
     const gv_artifact_simulator *simulator; /* NULL: sparse 3DGS */

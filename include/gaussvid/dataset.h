@@ -92,6 +92,8 @@ typedef struct {
     /* Scene-internal pairs (internal_pairs.h); 0 in the clips of `dataset build`, and then
      * absent from the file: */
     int offset;                      /* the sparse model's training views are offset + k n */
+    int subsets;                     /* K, the subsets of the training views that rendered the
+                                        pairs, when not 2 (internal_pairs.h); 0 when 2 */
     uint8_t no_target[GV_CLIP_FRAMES]; /* 1: an intermediate without ground truth (its targets
                                           frame repeats its input; losses skip it) */
     uint8_t has_coverage;            /* read: the file holds the coverage plane (gv_clip.coverage) */
@@ -159,6 +161,7 @@ typedef struct {
     gv_clip_sampling sampling;
     uint64_t seed;
     int densify;                     /* the simulator's density control (gv_splat_densify_mode) */
+    int subsets;                     /* scene-internal pairs: their K when not 2, else 0 (absent) */
 } gv_dataset_params;
 
 typedef struct {
@@ -227,14 +230,15 @@ int gv_run_record_write(const char *path, const gv_run_record *r);
 int gv_run_record_read(const char *path, gv_run_record *r);
 
 /* ---- build.c: `dataset build` ------------------------------------------------------------
- * The artifact simulator: trains a degraded model of a scene from its training views
- * (frames 0, n, 2n, ...) and renders any of its cameras through it. The default is sparse
- * 3DGS stopped early (gv_artifact_3dgs, artifact_3dgs.c); tests plug in cheap ones. */
+ * The artifact simulator: trains a degraded model of a scene from some of its views (the
+ * training views 0, n, 2n, ... for `dataset build`; a subset of them for adapt's internal
+ * pairs) and renders any of its cameras through it. The default is sparse 3DGS stopped early
+ * (gv_artifact_3dgs, artifact_3dgs.c); tests plug in cheap ones. */
 typedef struct {
     const char *name;
-    /* Trains on the interval's training views, stopped at iters, with density control
-     * densify (a gv_splat_densify_mode); *model belongs to the simulator. */
-    int (*train)(void *ctx, const gv_scene *scene, int interval, int iters, int densify,
+    /* Trains on the listed frames of the scene (ascending, at least two), stopped at iters,
+     * with density control densify (a gv_splat_densify_mode); *model belongs to the simulator. */
+    int (*train)(void *ctx, const gv_scene *scene, const int *views, int n_views, int iters, int densify,
                  uint64_t seed, void **model);
     /* Renders frame `frame` of the scene into out (newly allocated, RGB, camera size). */
     int (*render)(void *ctx, void *model, const gv_scene *scene, int frame, gv_image *out);

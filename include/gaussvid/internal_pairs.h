@@ -2,11 +2,13 @@
  * the supervision a sparse scene holds about itself, for adapting the restorer to it.
  *
  * With interval n the scene's training views are frames 0, n, 2n, ... (T = 1 + (F - 1) / n of
- * them; every other frame is held out and never read). Every other training view makes a
- * subset: parity 0 holds views 0, 2n, 4n, ..., parity 1 holds n, 3n, 5n, .... The artifact
- * simulator trains on each subset (interval 2n, first view p n) and renders the views between
- * its own. Interior training view k (1 <= k <= T - 2) makes one clip, rendered by the subset of
- * parity (k - 1) mod 2:
+ * them; every other frame is held out and never read). K subsets (K >= 2; 2 by default) each
+ * leave out one residue class of the views: subset j holds the views v with v mod K != (j + 1)
+ * mod K. K = 2 is every other view (subset 0: views 0, 2n, 4n, ...; subset 1: n, 3n, ...); a K
+ * of T or more leaves each interior view out alone, the rest of the scene kept. The
+ * artifact simulator trains on each subset that leaves out an interior view and renders the
+ * views between. Interior training view k (1 <= k <= T - 2) makes one clip, rendered by
+ * subset (k - 1) mod K, which holds both its neighbours:
  *   frame 0  view (k - 1) n, clean (a training view of the subset)
  *   frame 1  the render of the held-out frame at the uniform position of a 2n clip (about
  *            (k - 1/2) n): no ground truth, masked
@@ -15,7 +17,8 @@
  *   frame 4  view (k + 1) n, clean
  * so every interior training view is left out once, and the only frames with ground truth are
  * training views. The clips are those of a dataset folder (clip.c, manifest.c) with interval
- * 2n, the subset's first view as "offset" and the mask as "target_mask" (dataset.h).
+ * 2n, the window's first view mod 2n ((k - 1) mod 2 times n) as "offset" and the mask as
+ * "target_mask" (dataset.h); the manifest records K as "subsets".
  *
  * The do-no-harm clips (full_model) have the same frames and mask, rendered by the simulator
  * trained on every training view at n (their metadata stay the pairs'): frames 1 and 3 are renders like
@@ -32,10 +35,12 @@
 /* Training views a scene needs at its interval: three clips, so that part of them can be held
  * back for validation and each subset has at least two views. */
 #define GV_INTERNAL_MIN_VIEWS 5
+/* The default number of subsets: every other training view. */
+#define GV_INTERNAL_SUBSETS 2
 
 typedef struct {
     int view;                        /* k: the left-out training view is frame k n */
-    int parity;                      /* the subset that renders the clip: views of parity p */
+    int subset;                      /* the subset that renders the clip: (k - 1) mod K */
     int frames[GV_CLIP_FRAMES];      /* frame indices in the scene */
 } gv_internal_clip;
 
@@ -44,14 +49,17 @@ int gv_internal_views(int n_frames, int interval);
 /* Checks that a scene of n_frames frames gives internal pairs at interval n (n >= 2, at least
  * GV_INTERNAL_MIN_VIEWS training views); the message says how many views and frames it needs. */
 int gv_internal_check(int n_frames, int interval);
-/* The clips (T - 2, in order of k) into clips (room for n_frames rows). */
-int gv_internal_plan(int n_frames, int interval, gv_internal_clip *clips, int *count);
+/* The clips (T - 2, in order of k) into clips (room for n_frames rows), with K = subsets. */
+int gv_internal_plan(int n_frames, int interval, int subsets, gv_internal_clip *clips, int *count);
+/* The frames subset `subset` of K trains on, ascending, into frames (room for T). */
+int gv_internal_subset_views(int n_frames, int interval, int subsets, int subset, int *frames, int *count);
 
 typedef struct {
     int interval;                    /* n */
     int iters;                       /* the simulator's iterations per subset */
+    int subsets;                     /* K (0: GV_INTERNAL_SUBSETS); ignored for the do-no-harm clips */
     int densify;                     /* its density control (gv_splat_densify_mode) */
-    uint64_t seed;                   /* subset p trains with gv_run_seed(seed, scene, 2n) ^ (p * golden) */
+    uint64_t seed;                   /* subset j trains with gv_run_seed(seed, scene, 2n) ^ (j * golden) */
     const gv_artifact_simulator *simulator; /* NULL: sparse 3DGS (gv_artifact_3dgs) */
     const char *out_dir;             /* the dataset folder written */
     int full_model;                  /* 1: the do-no-harm clips instead of the internal pairs */
@@ -64,7 +72,7 @@ typedef struct {
 
 typedef struct {
     int clips;                       /* clips in the folder */
-    int subsets_trained;             /* subsets trained by this call (0, 1 or 2; 0 when resumed whole) */
+    int subsets_trained;             /* subsets trained by this call (0 when resumed whole) */
     double psnr, ssim;               /* mean over the left-out views of their renders */
     double seconds;
 } gv_internal_result;

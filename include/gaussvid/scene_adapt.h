@@ -25,6 +25,8 @@ typedef struct {
     char scene[GV_SCENE_NAME_MAX];  /* the scene's name (its folder name) */
     int interval;                   /* n: the checkpoint restores this scene's renders at n */
     int iters;                      /* the artifact simulator's iterations for the internal pairs */
+    int subsets;                    /* the subsets K of the internal pairs (0 in checkpoints from
+                                       before the choice: 2) */
     char base_checksum[48];         /* "fnv1a64:<16 hex>" of the base file's bytes */
     int train_clips, held_back;     /* internal clips trained on / held back for validation */
     long best_step;                 /* the step kept (0: the base's adapters unchanged) */

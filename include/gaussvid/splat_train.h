@@ -262,6 +262,10 @@ void gv_splat_trainer_free(gv_splat_trainer *t);
  * out (to be freed with gv_gaussians_free). */
 int gv_splat_train(const gv_scene *scene, int interval, const gv_splat_train_options *opt,
                    gv_gaussians *out);
+/* The same on the listed frames of the scene, in that order (at least two): gv_splat_train is
+ * this on the frames 0, n, 2n, ..., so the same list gives the same model. */
+int gv_splat_train_views(const gv_scene *scene, const int *views, int n_views,
+                         const gv_splat_train_options *opt, gv_gaussians *out);
 
 /* ---- evaluate.c -------------------------------------------------------------------------
  * Rendering a model from a scene camera to 8 bits, and metrics as 3DGS metrics.py computes

@@ -61,6 +61,10 @@ int cmd_adapt(int argc, char **argv)
          "output); docs/TRAINING.md", 0},
         {"fresh-camera", GV_FLAG_BOOL, &o.fresh_camera, NULL, "start the camera encoder from its initialisation, not the base's", 0},
         {"iters", GV_FLAG_INT, &o.iters, "N", "3DGS iterations of each internal subset model (default 8000, as dataset build)", 0},
+        {"subsets", GV_FLAG_INT, &o.subsets, "K",
+         "subsets of the training views for the internal pairs, each leaving out every K-th view: 2 (default, two "
+         "3DGS runs) leaves every other view out; K at least the training views (e.g. 99) leaves each interior view out "
+         "alone (a run per view)", 0},
         {"densify", GV_FLAG_STRING, &densify, "MODE",
          "their density control, as the scene's sparse model was trained: reference (default), lean or mcmc", 0},
         {"downscale", GV_FLAG_INT, &o.downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
@@ -104,9 +108,9 @@ int cmd_adapt(int argc, char **argv)
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
     if (steps < 1 || o.train.batch < 1 || val_every < 1 || stop_after < 0 || seed < 0 || o.interval < 2 ||
-        o.iters < 1 || o.hold_every < 2 || o.gate_min_frames < 1 || !(o.train.lr > 0) || !(o.train.t_max > 0 && o.train.t_max <= 1) ||
+        o.iters < 1 || o.subsets < 2 || o.hold_every < 2 || o.gate_min_frames < 1 || !(o.train.lr > 0) || !(o.train.t_max > 0 && o.train.t_max <= 1) ||
         !(o.harm_max_loss_db >= 0)) {
-        fprintf(stderr, "gaussvid adapt: --interval needs n >= 2, --hold-every K >= 2; --steps, --batch, --iters, "
+        fprintf(stderr, "gaussvid adapt: --interval needs n >= 2, --subsets and --hold-every K >= 2; --steps, --batch, --iters, "
                         "--val-every, --gate-min-frames and --lr must be positive, --t-max in (0, 1], --seed, --stop-after and "
                         "--harm-max-loss not negative\n");
         return 2;

@@ -1,6 +1,6 @@
 /* The artifact simulator of the paper (section 3.2, "Artifact Simulation via Controlled
- * Optimization"): 3DGS trained on the sparse views 0, n, 2n, ... and stopped early at
- * --iters (8000 in the paper), rendered at the held-out cameras. */
+ * Optimization"): 3DGS trained on the sparse views 0, n, 2n, ... (or the subset it is given)
+ * and stopped early at --iters (8000 in the paper), rendered at the held-out cameras. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -17,8 +17,8 @@ typedef struct {
     size_t pixel_capacity;
 } artifact_model;
 
-static int train_3dgs(void *ctx, const gv_scene *scene, int interval, int iters, int densify,
-                      uint64_t seed, void **model)
+static int train_3dgs(void *ctx, const gv_scene *scene, const int *views, int n_views, int iters,
+                      int densify, uint64_t seed, void **model)
 {
     (void)ctx;
     *model = NULL;
@@ -34,7 +34,7 @@ static int train_3dgs(void *ctx, const gv_scene *scene, int interval, int iters,
     /* Held-out views are rendered over the background the model was trained with. */
     float bg = opt.background == GV_BG_WHITE ? 1.0f : 0.0f;
     m->bg[0] = m->bg[1] = m->bg[2] = bg;
-    if (gv_splat_train(scene, interval, &opt, &m->gaussians) != 0) {
+    if (gv_splat_train_views(scene, views, n_views, &opt, &m->gaussians) != 0) {
         free(m);
         return -1;
     }

@@ -150,17 +150,17 @@ static int write_clips(const data_run *run, void *model, int (*frames)[GV_CLIP_F
     return 0;
 }
 
-/* Samples the clips and fills the record's identity and held-out frames. */
-static int plan_run(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int *n_clips,
-                    gv_run_record *rec)
+/* Samples the clips, lists the training views into train (n_frames long) and fills the
+ * record's identity and held-out frames. */
+static int plan_run(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int *n_clips, int *train,
+                    int *n_train, gv_run_record *rec)
 {
     int n_frames = run->scene->n_frames;
-    int *train = malloc((size_t)n_frames * sizeof *train);
     int *held_out = malloc((size_t)n_frames * sizeof *held_out);
-    int n_train = 0, n_held = 0, rc = -1;
+    int n_held = 0, rc = -1;
     uint64_t seed = gv_run_seed(run->params->seed, run->id.scene, run->id.n);
-    if (!train || !held_out) gv_fail("out of memory for %d frames", n_frames);
-    else if (gv_scene_split(n_frames, run->id.n, train, &n_train, held_out, &n_held) == 0 &&
+    if (!held_out) gv_fail("out of memory for %d frames", n_frames);
+    else if (gv_scene_split(n_frames, run->id.n, train, n_train, held_out, &n_held) == 0 &&
              gv_sample_clips(n_frames, run->id.n, run->params->anchor_gap, run->params->sampling,
                              run->params->clips_per_run, seed ^ 0x9E3779B97F4A7C15ull, frames,
                              n_clips) == 0 &&
@@ -170,10 +170,10 @@ static int plan_run(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int *n_c
         memcpy(rec->held_out, held_out, (size_t)n_held * sizeof *held_out);
         rec->id = run->id;
         rec->iters = run->params->iters;
-        rec->n_train = n_train;
+        rec->n_train = *n_train;
         rec->n_clips = *n_clips;
     }
-    free(train), free(held_out);
+    free(held_out);
     return rc ? gv_fail_context("%s: n=%d", run->id.scene, run->id.n) : 0;
 }
 
@@ -197,18 +197,19 @@ static int commit_run(const data_run *run, gv_run_record *rec, gv_manifest_clip 
 int data_build_run(const data_run *run, gv_manifest *m, gv_run_record *rec)
 {
     double start = gv_now();
-    int k = run->params->clips_per_run, n_clips = 0, rc = -1;
+    int k = run->params->clips_per_run, n_clips = 0, n_train = 0, rc = -1;
     int (*frames)[GV_CLIP_FRAMES] = calloc((size_t)k, sizeof *frames);
     gv_manifest_clip *entries = calloc((size_t)k, sizeof *entries);
+    int *train = malloc((size_t)run->scene->n_frames * sizeof *train);
     frame_cache cache = {0};
     void *model = NULL;
     memset(rec, 0, sizeof *rec);
-    if (!frames || !entries) { gv_fail("out of memory for %d clips", k); goto done; }
-    if (plan_run(run, frames, &n_clips, rec) != 0 ||
+    if (!frames || !entries || !train) { gv_fail("out of memory for %d clips", k); goto done; }
+    if (plan_run(run, frames, &n_clips, train, &n_train, rec) != 0 ||
         cache_init(&cache, run->scene->n_frames, frames, n_clips) != 0)
         goto done;
     const gv_artifact_simulator *sim = run->simulator;
-    if (sim->train(sim->ctx, run->scene, run->id.n, run->params->iters, run->params->densify,
+    if (sim->train(sim->ctx, run->scene, train, n_train, run->params->iters, run->params->densify,
                    gv_run_seed(run->params->seed, run->id.scene, run->id.n), &model) != 0) {
         gv_fail_context("%s: n=%d: %s", run->id.scene, run->id.n, sim->name);
         goto done;
@@ -226,7 +227,7 @@ int data_build_run(const data_run *run, gv_manifest *m, gv_run_record *rec)
 done:
     if (model) run->simulator->free_model(run->simulator->ctx, model);
     cache_free(&cache);
-    free(frames), free(entries);
+    free(frames), free(entries), free(train);
     if (rc != 0) gv_run_record_free(rec);
     return rc;
 }

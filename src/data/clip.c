@@ -156,6 +156,7 @@ static int add_metadata(gv_st_builder *b, const gv_clip_info *info)
              gv_st_add_metadata(b, "seed", seed) || add_int(b, "width", info->width) ||
              add_int(b, "height", info->height);
     if (rc == 0 && info->offset) rc = add_int(b, "offset", info->offset);
+    if (rc == 0 && info->subsets) rc = add_int(b, "subsets", info->subsets);
     char *mask = rc == 0 && has_mask(info) ? frames_json(info, 2) : NULL;
     if (rc == 0 && has_mask(info)) rc = mask ? gv_st_add_metadata(b, "target_mask", mask) : gv_fail("out of memory");
     free(mask);
@@ -285,7 +286,8 @@ static int read_metadata(const gv_st_file *f, gv_clip_info *info)
         meta_int(f, "width", 1, MAX_SIDE, &info->width) ||
         meta_int(f, "height", 1, MAX_SIDE, &info->height) || meta_frames(f, info, 0) ||
         meta_frames(f, info, 1) || meta_mask(f, info) ||
-        (gv_st_metadata(f, "offset") && meta_int(f, "offset", 0, 1000000, &info->offset)))
+        (gv_st_metadata(f, "offset") && meta_int(f, "offset", 0, 1000000, &info->offset)) ||
+        (gv_st_metadata(f, "subsets") && meta_int(f, "subsets", 3, 1000000, &info->subsets)))
         return -1;
     return gv_clip_check_info(info, f->path);
 }

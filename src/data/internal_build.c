@@ -1,10 +1,8 @@
 /* Building the scene-internal clips (internal_pairs.h; docs/FORMATS-DATASET.md): the artifact
- * simulator trained on each half of the training views, its renders of the views it did not
+ * simulator trained on each subset of the training views, its renders of the views it did not
  * see, written as clips of a dataset folder; or, for the do-no-harm clips, the same clips'
- * frames rendered by the simulator trained on every training view. A subset trains on a view of the scene that starts
- * at its first training view, so the simulator's "frames 0, 2n, 4n, ..." are the subset's
- * views whatever their parity, and the simulator interface stays that of `dataset build`.
- * Images are read only for training views at n: the held-out frames are rendered, never read. */
+ * frames rendered by the simulator trained on every training view. Images are read only for
+ * training views at n: the held-out frames are rendered, never read. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -14,7 +12,7 @@
 #include "gaussvid/splat_train.h"
 #include "data/build_internal.h"
 
-#define PARITY_SEED 0x9E3779B97F4A7C15ull /* subset 1's seed differs from subset 0's */
+#define SUBSET_SEED 0x9E3779B97F4A7C15ull /* subset j trains with the run seed ^ (j * this) */
 
 typedef struct {
     const gv_scene *scene;
@@ -23,6 +21,7 @@ typedef struct {
     char name[GV_SCENE_NAME_MAX];
     gv_internal_clip *clips;
     int count;
+    int subsets;                     /* K */
     gv_dataset_params params;
 } build_ctx;
 
@@ -40,7 +39,8 @@ static void clip_info(const build_ctx *b, const gv_internal_clip *c, gv_clip_inf
     info->seed = b->o->seed;
     info->width = cams[c->frames[0]].width;
     info->height = cams[c->frames[0]].height;
-    info->offset = c->parity * b->o->interval;
+    info->offset = (c->view - 1) % 2 * b->o->interval; /* the window's first anchor mod 2n */
+    info->subsets = b->o->full_model || b->subsets == GV_INTERNAL_SUBSETS ? 0 : b->subsets;
     for (int f = 0; f < GV_CLIP_FRAMES; f++) {
         info->frames[f] = c->frames[f];
         snprintf(info->frame_names[f], sizeof info->frame_names[f], "%s", cams[c->frames[f]].name);
@@ -66,6 +66,7 @@ static int clip_present(const build_ctx *b, int i)
         return 0;
     }
     return !strcmp(have.id.scene, want.id.scene) && have.id.n == want.id.n && have.offset == want.offset &&
+           have.subsets == want.subsets &&
            have.iters == want.iters && have.seed == want.seed && have.width == want.width &&
            have.height == want.height && !memcmp(have.frames, want.frames, sizeof want.frames) &&
            !memcmp(have.no_target, want.no_target, sizeof want.no_target) &&
@@ -80,7 +81,7 @@ static int fits(const gv_image *img, const gv_clip_info *info)
 /* Clip i from the model of a subset or of every view: clean anchors, the renders of frames 1-3
  * as inputs, the middle frame's ground truth as its target; the masked frames' targets repeat
  * their inputs; the coverage plane by that model's depth when the simulator renders depth. */
-static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int i)
+static int write_clip(const build_ctx *b, void *model, int i)
 {
     const gv_internal_clip *c = &b->clips[i];
     gv_clip_info info;
@@ -88,12 +89,12 @@ static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int
     clip_info(b, c, &info);
     if (gv_clip_alloc(&clip, &info)) return -1;
     size_t bytes = (size_t)info.width * info.height * 3;
-    int first = (int)(view->cameras - b->scene->cameras), rc = 0; /* the model's view starts there */
+    int rc = 0;
     for (int f = 0; rc == 0 && f < GV_CLIP_FRAMES; f++) {
         int frame = c->frames[f], anchor = f == 0 || f == GV_CLIP_FRAMES - 1, has_truth = anchor || f == 2;
         gv_image truth = {0}, render = {0};
         if (has_truth) rc = gv_scene_load_image(b->scene, frame, &truth);
-        if (rc == 0 && !anchor) rc = b->sim->render(b->sim->ctx, model, view, frame - first, &render);
+        if (rc == 0 && !anchor) rc = b->sim->render(b->sim->ctx, model, b->scene, frame, &render);
         const gv_image *input = anchor ? &truth : &render, *target = has_truth ? &truth : &render;
         if (rc == 0 && (!fits(input, &info) || !fits(target, &info)))
             rc = gv_fail("%s: frame %d is not %dx%d RGB like the clip's first frame: a clip needs one size", b->name,
@@ -105,9 +106,7 @@ static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int
         }
         gv_image_free(&truth), gv_image_free(&render);
     }
-    int view_frames[GV_CLIP_FRAMES];
-    for (int f = 0; f < GV_CLIP_FRAMES; f++) view_frames[f] = c->frames[f] - first;
-    if (rc == 0 && b->sim->depth) rc = gv_clip_coverage_simulated(&clip, b->sim, model, view, view_frames);
+    if (rc == 0 && b->sim->depth) rc = gv_clip_coverage_simulated(&clip, b->sim, model, b->scene, c->frames);
     char file[GV_SCENE_NAME_MAX + 64], path[4096];
     if (rc == 0) rc = clip_path(b, i, file, sizeof file, path, sizeof path);
     if (rc == 0) rc = gv_clip_write(path, &clip);
@@ -115,32 +114,47 @@ static int write_clip(const build_ctx *b, void *model, const gv_scene *view, int
     return rc ? gv_fail_context("%s: internal clip of view %d", b->name, c->view) : 0;
 }
 
-/* 1 when clip i is rendered by the model of pass p (the subset of parity p; the full model
- * renders every clip in its one pass). */
-static int in_pass(const build_ctx *b, int i, int p) { return b->o->full_model || b->clips[i].parity == p; }
+/* 1 when clip i is rendered by the model of pass p (subset p; the full model renders every
+ * clip in its one pass). */
+static int in_pass(const build_ctx *b, int i, int p) { return b->o->full_model || b->clips[i].subset == p; }
 
-/* Trains the model of pass p (the subset of parity p, or the full model) and writes its clips. */
+/* "0, 6, 12 and 18" or "0, 6, ..., 30" of a list of frames. */
+static void describe_views(const int *v, int count, char *out, size_t size)
+{
+    if (count <= 4) {
+        int used = 0;
+        for (int i = 0; i < count && used < (int)size; i++)
+            used += snprintf(out + used, size - used, "%s%d", i == 0 ? "" : i == count - 1 ? " and " : ", ", v[i]);
+    } else
+        snprintf(out, size, "%d, %d, ..., %d", v[0], v[1], v[count - 1]);
+}
+
+/* Trains the model of pass p (subset p, or the full model) and writes its clips. */
 static int build_subset(const build_ctx *b, int p)
 {
-    int n = b->o->interval, step = b->o->full_model ? n : 2 * n, first = b->o->full_model ? 0 : p * n;
-    gv_scene view = *b->scene; /* the scene from the subset's first view on: not owned */
-    view.cameras = b->scene->cameras + first;
-    view.n_frames = b->scene->n_frames - first;
-    int views = (view.n_frames - 1) / step + 1, clips = 0;
+    int n = b->o->interval, *views = malloc((size_t)b->scene->n_frames * sizeof *views), n_views = 0, clips = 0;
+    if (!views) return gv_fail("out of memory for %d frames", b->scene->n_frames);
+    if (b->o->full_model) {
+        for (int f = 0; f < b->scene->n_frames; f += n) views[n_views++] = f;
+    } else if (gv_internal_subset_views(b->scene->n_frames, n, b->subsets, p, views, &n_views)) {
+        free(views);
+        return -1;
+    }
     for (int i = 0; i < b->count; i++) clips += in_pass(b, i, p);
-    char list[96], what[64];
-    if (views == 2) snprintf(list, sizeof list, "%d and %d", first, first + step);
-    else snprintf(list, sizeof list, "%d, %d, ..., %d", first, first + step, first + (views - 1) * step);
+    char list[96], what[96];
+    describe_views(views, n_views, list, sizeof list);
     if (b->o->full_model) snprintf(what, sizeof what, "do-no-harm clips: %s, the full model", b->name);
-    else snprintf(what, sizeof what, "internal pairs: %s subset %d of 2", b->name, p + 1);
-    gv_info("%s (views %s: %d views at interval %d), %d clip%s", what, list, views, step, clips, clips == 1 ? "" : "s");
-    uint64_t seed = gv_run_seed(b->o->seed, b->name, step) ^ (p ? PARITY_SEED : 0);
+    else snprintf(what, sizeof what, "internal pairs: %s subset %d of %d", b->name, p + 1, b->subsets);
+    gv_info("%s (views %s: %d views), %d clip%s", what, list, n_views, clips, clips == 1 ? "" : "s");
+    /* the full model: the seed `dataset build` would give the user's model at n */
+    uint64_t seed = b->o->full_model ? gv_run_seed(b->o->seed, b->name, n)
+                                     : gv_run_seed(b->o->seed, b->name, 2 * n) ^ ((uint64_t)p * SUBSET_SEED);
     void *model = NULL;
-    if (b->sim->train(b->sim->ctx, &view, step, b->o->iters, b->o->densify, seed, &model))
-        return gv_fail_context("%s: %s", what, b->sim->name);
-    int rc = 0;
+    int rc = b->sim->train(b->sim->ctx, b->scene, views, n_views, b->o->iters, b->o->densify, seed, &model);
+    free(views);
+    if (rc) return gv_fail_context("%s: %s", what, b->sim->name);
     for (int i = 0; rc == 0 && i < b->count; i++)
-        if (in_pass(b, i, p)) rc = write_clip(b, model, &view, i);
+        if (in_pass(b, i, p)) rc = write_clip(b, model, i);
     b->sim->free_model(b->sim->ctx, model);
     return rc;
 }
@@ -213,7 +227,8 @@ static int already_built(const build_ctx *b)
     const gv_dataset_params *p = &m.params, *q = &b->params;
     int same = m.n_runs == 1 && !strcmp(m.runs[0].id.scene, b->name) && m.runs[0].id.n == 2 * b->o->interval &&
                p->iters == q->iters && p->densify == q->densify && p->seed == q->seed && p->clips_per_run == q->clips_per_run &&
-               p->downscale == q->downscale && p->anchor_gap == q->anchor_gap && p->sampling == q->sampling;
+               p->downscale == q->downscale && p->anchor_gap == q->anchor_gap && p->sampling == q->sampling &&
+               p->subsets == q->subsets;
     int complete = same && m.n_clips == b->count;
     for (int i = 0; complete && i < m.n_clips; i++) {
         char path[4096];
@@ -225,11 +240,14 @@ static int already_built(const build_ctx *b)
         }
     }
     gv_manifest_free(&m);
-    if (!same)
-        return gv_fail("%s: holds other clips than the %s of %s at n = %d with %d iterations, density control %s "
+    if (!same) {
+        char subsets[32] = "";
+        if (!b->o->full_model) snprintf(subsets, sizeof subsets, ", %d subsets", b->subsets);
+        return gv_fail("%s: holds other clips than the %s of %s at n = %d with %d iterations%s, density control %s "
                        "and seed %llu: use another folder", b->o->out_dir,
                        b->o->full_model ? "do-no-harm clips" : "internal pairs", b->name, b->o->interval, q->iters,
-                       gv_splat_densify_mode_name(q->densify), (unsigned long long)q->seed);
+                       subsets, gv_splat_densify_mode_name(q->densify), (unsigned long long)q->seed);
+    }
     return complete;
 }
 
@@ -248,20 +266,23 @@ int gv_internal_build(const gv_scene *scene, const gv_internal_options *o, gv_in
     if (gv_internal_check(scene->n_frames, o->interval)) return gv_fail_context("%s", scene->dir);
     b.clips = malloc((size_t)scene->n_frames * sizeof *b.clips);
     if (!b.clips) return gv_fail("out of memory for %d frames", scene->n_frames);
-    int rc = gv_internal_plan(scene->n_frames, o->interval, b.clips, &b.count);
+    b.subsets = o->subsets ? o->subsets : GV_INTERNAL_SUBSETS;
+    int rc = gv_internal_plan(scene->n_frames, o->interval, b.subsets, b.clips, &b.count);
     gv_dataset_default_params(&b.params);
     b.params.iters = o->iters, b.params.densify = o->densify, b.params.seed = o->seed, b.params.clips_per_run = b.count;
+    b.params.subsets = o->full_model || b.subsets == GV_INTERNAL_SUBSETS ? 0 : b.subsets;
     b.params.downscale = scene->downscale > 0 ? scene->downscale : 1;
     if (rc == 0) rc = data_prepare_out_dir(o->out_dir); /* as dataset build: a killed subset's temporaries go */
     int done = rc == 0 ? already_built(&b) : -1;
     if (done < 0) rc = -1;
-    for (int p = 0; rc == 0 && !done && p < (o->full_model ? 1 : 2); p++) {
-        int present = 1;
+    for (int p = 0; rc == 0 && !done && p < (o->full_model ? 1 : b.subsets); p++) {
+        int present = 1, clips = 0;
         for (int i = 0; present && i < b.count; i++)
-            if (in_pass(&b, i, p)) present = clip_present(&b, i);
+            if (in_pass(&b, i, p)) present = clip_present(&b, i), clips++;
+        if (clips == 0) continue; /* K beyond the interior views: this subset leaves none out */
         if (present) {
             if (o->full_model) gv_info("do-no-harm clips: %s: already built", b.name);
-            else gv_info("internal pairs: %s subset %d of 2: its clips are already built", b.name, p + 1);
+            else gv_info("internal pairs: %s subset %d of %d: its clips are already built", b.name, p + 1, b.subsets);
             continue;
         }
         rc = build_subset(&b, p);

@@ -1,7 +1,7 @@
 /* Which frames make the scene-internal clips (internal_pairs.h): interior training view k is
- * left out of the subset of the other parity and sits in the middle of a clip whose anchors
- * are its two neighbouring training views, with the uniform positions of a 2n clip (the
- * sampling of `dataset build`) around it. */
+ * left out of subset (k - 1) mod K and sits in the middle of a clip whose anchors are its two
+ * neighbouring training views, with the uniform positions of a 2n clip (the sampling of
+ * `dataset build`) around it. */
 #include "gaussvid/core.h"
 #include "gaussvid/internal_pairs.h"
 
@@ -22,17 +22,18 @@ int gv_internal_check(int n_frames, int interval)
     return 0;
 }
 
-int gv_internal_plan(int n_frames, int interval, gv_internal_clip *clips, int *count)
+int gv_internal_plan(int n_frames, int interval, int subsets, gv_internal_clip *clips, int *count)
 {
     *count = 0;
     if (gv_internal_check(n_frames, interval)) return -1;
+    if (subsets < 2) return gv_fail("%d subsets: scene-internal pairs need at least 2", subsets);
     int views = gv_internal_views(n_frames, interval);
     for (int k = 1; k <= views - 2; k++) {
         gv_internal_clip *c = &clips[*count];
         c->view = k;
-        c->parity = (k - 1) % 2;
-        /* the subset's frames counted from its first view: anchors 2n apart, as a 2n clip */
-        int first = c->parity * interval;
+        c->subset = (k - 1) % subsets;
+        /* the window's frames counted from its first anchor's parity: anchors 2n apart, as a 2n clip */
+        int first = (k - 1) % 2 * interval;
         if (gv_clip_frames(n_frames - first, 2 * interval, 1, GV_SAMPLING_UNIFORM, (k - 1) * interval - first, NULL,
                            c->frames))
             return gv_fail_context("internal clip of view %d (n = %d)", k, interval);
@@ -41,5 +42,16 @@ int gv_internal_plan(int n_frames, int interval, gv_internal_clip *clips, int *c
             return gv_fail("internal clip of view %d (n = %d): middle frame %d", k, interval, c->frames[2]);
         (*count)++;
     }
+    return 0;
+}
+
+int gv_internal_subset_views(int n_frames, int interval, int subsets, int subset, int *frames, int *count)
+{
+    *count = 0;
+    int views = gv_internal_views(n_frames, interval);
+    if (subsets < 2 || subset < 0 || subset >= subsets)
+        return gv_fail("subset %d of %d: need 0 <= subset < subsets and subsets >= 2", subset, subsets);
+    for (int v = 0; v < views; v++)
+        if (v % subsets != (subset + 1) % subsets) frames[(*count)++] = v * interval;
     return 0;
 }

@@ -111,6 +111,7 @@ static cJSON *params_json(const gv_dataset_params *p)
     cJSON_AddNumberToObject(o, "clips_per_run", p->clips_per_run);
     cJSON_AddNumberToObject(o, "seed", (double)p->seed);
     cJSON_AddNumberToObject(o, "downscale", p->downscale);
+    if (p->subsets) cJSON_AddNumberToObject(o, "subsets", p->subsets);
     return o;
 }
 
@@ -205,6 +206,13 @@ static int read_params(const cJSON *o, const char *path, gv_dataset_params *p)
     }
     p->iters = (int)v[0], p->anchor_gap = (int)v[1], p->clips_per_run = (int)v[2];
     p->seed = (uint64_t)v[3], p->downscale = (int)v[4];
+    /* Only in scene-internal folders whose pairs come from other than 2 subsets. */
+    p->subsets = 0;
+    if (cJSON_GetObjectItemCaseSensitive(o, "subsets")) {
+        double k;
+        if (get_int(o, "subsets", 3, 1e6, path, "params", &k)) return -1;
+        p->subsets = (int)k;
+    }
     return 0;
 }
 

@@ -18,6 +18,7 @@ void gv_adapt_defaults(gv_adapt_options *o)
     o->downscale = 1;
     o->iters = 8000;                  /* paper 3.2, as `dataset build` */
     o->densify = GV_DENSIFY_DEFAULT;  /* as `splat train` and `reconstruct` train the user's model */
+    o->subsets = GV_INTERNAL_SUBSETS; /* every other view: two 3DGS runs */
     o->hold_every = 3;
     gv_train_defaults(&o->train, GV_OBJECTIVE_FINETUNE);
     o->train.steps = 300;
@@ -219,7 +220,7 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
         return -1;
     }
     int planes = want.variant.coverage || o->compose == GV_COMPOSE_UNSEEN; /* both read the coverage plane */
-    gv_internal_options po = {.interval = o->interval, .iters = o->iters, .densify = o->densify, .seed = o->train.seed,
+    gv_internal_options po = {.interval = o->interval, .iters = o->iters, .subsets = o->subsets, .densify = o->densify, .seed = o->train.seed,
                               .simulator = o->simulator, .out_dir = pairs, .full_model = 0, .coverage = planes};
     gv_internal_options ho = po;
     ho.out_dir = harm, ho.full_model = 1;
@@ -268,7 +269,7 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
     gv_info("adapt: gate: restoring the %d held-back clips with the adapters of step %ld", x->held.count, r->best.step);
     if (measure_gate(o, pairs, harm, x, a)) return -1;
     a->seconds_gate = gv_now() - t;
-    a->interval = o->interval, a->iters = o->iters;
+    a->interval = o->interval, a->iters = o->iters, a->subsets = o->subsets;
     a->train_clips = x->train.count, a->held_back = x->held.count;
     a->best_step = r->best.step;
     snprintf(a->best_by, sizeof a->best_by, "%s", o->early_stop_psnr ? "PSNR change" : "latent gain");
@@ -282,10 +283,10 @@ int gv_adapt_scene(const gv_adapt_options *o, gv_adapt_report *r)
 {
     memset(r, 0, sizeof *r);
     if (!o->scene_dir || !o->base || !o->out) return gv_fail("adapt: a scene, a base checkpoint and an output are needed");
-    if (o->interval < 2 || o->iters < 1 || o->hold_every < 2 || !(o->harm_max_loss_db >= 0))
-        return gv_fail("adapt: interval %d, iterations %d, hold-back interval %d, do-no-harm loss %g dB: need n >= 2, "
-                       "iterations >= 1, every >= 2 and a loss >= 0", o->interval, o->iters, o->hold_every,
-                       o->harm_max_loss_db);
+    if (o->interval < 2 || o->iters < 1 || o->subsets < 2 || o->hold_every < 2 || !(o->harm_max_loss_db >= 0))
+        return gv_fail("adapt: interval %d, iterations %d, subsets %d, hold-back interval %d, do-no-harm loss %g dB: need "
+                       "n >= 2, iterations >= 1, subsets >= 2, every >= 2 and a loss >= 0", o->interval, o->iters,
+                       o->subsets, o->hold_every, o->harm_max_loss_db);
     if (o->work_dir) snprintf(r->work_dir, sizeof r->work_dir, "%s", o->work_dir);
     else snprintf(r->work_dir, sizeof r->work_dir, "%s.work", o->out);
     gv_atomic_sweep_beside(o->out); /* the temporary of a scene checkpoint a kill cut short */

@@ -1,5 +1,5 @@
-/* Training on the sparse split of a scene: frames 0, n, 2n, ... (DESIGN.md section 5),
- * with a progress bar showing the iteration, the loss, the Gaussian count, the rate and
+/* Training on the sparse split of a scene: frames 0, n, 2n, ... (DESIGN.md section 5), or
+ * on any list of its frames (the subsets of adapt's internal pairs), with a progress bar showing the iteration, the loss, the Gaussian count, the rate and
  * the time left. */
 #include <stdlib.h>
 #include <string.h>
@@ -39,34 +39,36 @@ static int run(gv_splat_trainer *t, const char *label)
     return 0;
 }
 
-int gv_splat_train(const gv_scene *scene, int interval, const gv_splat_train_options *opt,
-                   gv_gaussians *out)
+int gv_splat_train_views(const gv_scene *scene, const int *views, int n_views,
+                         const gv_splat_train_options *opt, gv_gaussians *out)
 {
     memset(out, 0, sizeof *out);
-    int n = scene->n_frames;
-    int *train = malloc((size_t)(n > 0 ? n : 1) * sizeof(int));
-    int *held_out = malloc((size_t)(n > 0 ? n : 1) * sizeof(int));
-    gv_camera *cameras = malloc((size_t)(n > 0 ? n : 1) * sizeof(gv_camera));
-    gv_image *images = calloc((size_t)(n > 0 ? n : 1), sizeof(gv_image));
-    int n_train = 0, n_held_out = 0, loaded = 0, ok = -1;
+    gv_camera *cameras = malloc((size_t)(n_views > 0 ? n_views : 1) * sizeof(gv_camera));
+    gv_image *images = calloc((size_t)(n_views > 0 ? n_views : 1), sizeof(gv_image));
+    int loaded = 0, ok = -1;
     gv_splat_trainer t;
     memset(&t, 0, sizeof t);
-    if (!train || !held_out || !cameras || !images) {
-        gv_fail("%s: out of memory for %d frames", scene->dir, n);
+    if (!cameras || !images) {
+        gv_fail("%s: out of memory for %d views", scene->dir, n_views);
         goto done;
     }
-    if (gv_scene_split(n, interval, train, &n_train, held_out, &n_held_out) != 0) {
-        gv_fail_context("%s", scene->dir);
+    if (n_views < 2) {
+        gv_fail("%s: %d training views: 3DGS needs at least two", scene->dir, n_views);
         goto done;
     }
-    for (; loaded < n_train; loaded++) {
-        cameras[loaded] = scene->cameras[train[loaded]];
-        if (gv_scene_load_image(scene, train[loaded], &images[loaded]) != 0) goto done;
+    for (int i = 0; i < n_views; i++)
+        if (views[i] < 0 || views[i] >= scene->n_frames) {
+            gv_fail("%s: training view %d: the scene has frames 0..%d", scene->dir, views[i], scene->n_frames - 1);
+            goto done;
+        }
+    for (; loaded < n_views; loaded++) {
+        cameras[loaded] = scene->cameras[views[loaded]];
+        if (gv_scene_load_image(scene, views[loaded], &images[loaded]) != 0) goto done;
     }
-    double extent = gv_scene_extent(scene, train, n_train);
-    gv_info("%s: training on %d of %d frames (interval %d), %d held out, extent %.3f, %d points",
-            scene->dir, n_train, n, interval, n_held_out, extent, scene->n_points);
-    if (gv_splat_trainer_init(&t, opt, n_train, cameras, images, extent, scene->n_points,
+    double extent = gv_scene_extent(scene, views, n_views);
+    gv_info("%s: training on %d of %d frames (%d, %d, ..., %d), extent %.3f, %d points", scene->dir, n_views,
+            scene->n_frames, views[0], views[1], views[n_views - 1], extent, scene->n_points);
+    if (gv_splat_trainer_init(&t, opt, n_views, cameras, images, extent, scene->n_points,
                               scene->points, scene->colors) != 0) {
         gv_fail_context("%s", scene->dir);
         goto done;
@@ -82,6 +84,20 @@ int gv_splat_train(const gv_scene *scene, int interval, const gv_splat_train_opt
 done:
     gv_splat_trainer_free(&t);
     if (images) free_images(images, loaded);
-    free(train), free(held_out), free(cameras);
+    free(cameras);
     return ok;
+}
+
+int gv_splat_train(const gv_scene *scene, int interval, const gv_splat_train_options *opt,
+                   gv_gaussians *out)
+{
+    memset(out, 0, sizeof *out);
+    int n = scene->n_frames, n_train = 0, n_held_out = 0, rc = -1;
+    int *train = malloc((size_t)(n > 0 ? n : 1) * sizeof(int));
+    int *held_out = malloc((size_t)(n > 0 ? n : 1) * sizeof(int));
+    if (!train || !held_out) gv_fail("%s: out of memory for %d frames", scene->dir, n);
+    else if (gv_scene_split(n, interval, train, &n_train, held_out, &n_held_out) != 0) gv_fail_context("%s", scene->dir);
+    else rc = gv_splat_train_views(scene, train, n_train, opt, out);
+    free(train), free(held_out);
+    return rc;
 }

@@ -113,7 +113,7 @@ static const field fields[] = {
     LATER("harm_max_loss_db", FIELD_DOUBLE, harm_max_loss_db), LATER("harm_frames", FIELD_INT, harm_frames),
     LATER("harm_psnr_base", FIELD_DOUBLE, harm_psnr_base), LATER("harm_psnr_restored", FIELD_DOUBLE, harm_psnr_restored),
     LATER("harm_ssim_base", FIELD_DOUBLE, harm_ssim_base), LATER("harm_ssim_restored", FIELD_DOUBLE, harm_ssim_restored),
-    LATER_TEXT("gate_compose", gate_compose), LATER_TEXT("best_by", best_by),
+    LATER_TEXT("gate_compose", gate_compose), LATER_TEXT("best_by", best_by), LATER("subsets", FIELD_INT, subsets),
 };
 #define N_FIELDS (int)(sizeof fields / sizeof fields[0])
 

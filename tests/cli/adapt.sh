@@ -1,7 +1,7 @@
 #!/bin/bash
 # gaussvid adapt: a scene checkpoint from a scene's internal pairs (the adapters alone, the
 # gate recorded); an interrupted adaptation resumed to the bytes of an uninterrupted one; a
-# finished one not redone; bad inputs (too few training views, a base of another network or
+# finished one not redone; pairs from each view left out alone (--subsets); bad inputs (too few training views, a base of another network or
 # with a VAE that packs frames, a missing model) failing with one line and writing nothing.
 # restore and eval with a scene checkpoint: a closed gate leaves the renders bit-identical
 # and says so; an open gate restores.
@@ -58,6 +58,16 @@ check "validation at steps 0, 2, 4" test "$(grep -c all a.safetensors.work/val.t
 check "kind scene" grep -qE '"kind":[[:space:]]*"scene"' <("$G" st inspect --json a.safetensors)
 check "gate recorded" grep -qE '"gate":[[:space:]]*"(open|closed)"' <("$G" st inspect --json a.safetensors)
 check "base recorded" grep -q "base.safetensors" <(meta a.safetensors base)
+check "two subsets recorded" grep -q '"2"' <(meta a.safetensors subsets)
+
+# Each interior view left out alone (--subsets 99): one 3DGS run per interior view, K recorded
+# in the pairs' folder and the scene checkpoint; fewer than two subsets is a usage error.
+expect 2 "one subset" -- "$G" adapt "${AD[@]}" --subsets 1 --out k1.safetensors
+one_line "--subsets and --hold-every K >= 2"
+expect 0 "adapt, each view alone" -- "$G" adapt "${AD[@]}" --subsets 99 --steps 2 --out k.safetensors
+check "a run per interior view" grep -q "subset 3 of 99" "$T/err" "$T/out"
+check "K in the pairs' manifest" grep -qE '"subsets":[[:space:]]*99' k.safetensors.work/pairs/manifest.json
+check "K in the scene checkpoint" grep -q '"99"' <(meta k.safetensors subsets)
 check "linear decay recorded" grep -q "schedule=linear" <(meta a.safetensors training)
 check "holds LoRA" grep -q "lora_B.weight" <("$G" st inspect a.safetensors)
 check "holds the camera encoder" grep -q "camera_encoder" <("$G" st inspect a.safetensors)
