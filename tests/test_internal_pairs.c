@@ -55,6 +55,13 @@ static void make_scene(const char *dir, int frames)
     free(s.cameras);
 }
 
+/* make_scene, loaded. */
+static void new_scene(const char *dir, gv_scene *scene)
+{
+    make_scene(dir, FRAMES);
+    CHECK(gv_scene_load(dir, NULL, scene) == 0);
+}
+
 /* ---- the stand-in simulator ------------------------------------------------------------- */
 enum { MAX_TRAINS = 8 };
 typedef struct {
@@ -296,9 +303,8 @@ static void test_build(const char *base)
 {
     char scene_dir[4400], out[4400], path[4400];
     snprintf(scene_dir, sizeof scene_dir, "%s/room", base);
-    make_scene(scene_dir, FRAMES);
     gv_scene scene;
-    CHECK(gv_scene_load(scene_dir, NULL, &scene) == 0);
+    new_scene(scene_dir, &scene);
     for (int f = 0; f < FRAMES; f++) /* the held-out frames: never to be read */
         if (f % N) {
             snprintf(path, sizeof path, "%s/images/frame_%05d.png", scene_dir, f);
@@ -374,9 +380,8 @@ static void test_build_subsets(const char *base)
 {
     char scene_dir[4400], out[4400], path[4400];
     snprintf(scene_dir, sizeof scene_dir, "%s/k3/room", base);
-    make_scene(scene_dir, FRAMES);
     gv_scene scene;
-    CHECK(gv_scene_load(scene_dir, NULL, &scene) == 0);
+    new_scene(scene_dir, &scene);
     snprintf(out, sizeof out, "%s/k3/pairs", base);
     gv_internal_options o = {.interval = N, .iters = 7, .subsets = 3, .densify = GV_DENSIFY_MCMC, .seed = 4,
                              .simulator = &fake, .out_dir = out};
@@ -414,9 +419,8 @@ static void test_build_harm(const char *base)
 {
     char scene_dir[4400], out[4400];
     snprintf(scene_dir, sizeof scene_dir, "%s/full/room", base);
-    make_scene(scene_dir, FRAMES);
     gv_scene scene;
-    CHECK(gv_scene_load(scene_dir, NULL, &scene) == 0);
+    new_scene(scene_dir, &scene);
     snprintf(out, sizeof out, "%s/harm", base);
     gv_internal_options o = {.interval = N, .iters = 7, .densify = GV_DENSIFY_MCMC, .seed = 4, .simulator = &fake,
                              .out_dir = out, .full_model = 1};

@@ -25,6 +25,13 @@ typedef struct {
     gv_dataset_params params;
 } build_ctx;
 
+/* K as the files record it: only for pairs of other than the default 2 subsets (older folders
+ * read as 2), never for the do-no-harm clips, which one model renders. */
+static int recorded_subsets(const gv_internal_options *o, int subsets)
+{
+    return o->full_model || subsets == GV_INTERNAL_SUBSETS ? 0 : subsets;
+}
+
 /* The metadata of a planned clip. */
 static void clip_info(const build_ctx *b, const gv_internal_clip *c, gv_clip_info *info)
 {
@@ -40,7 +47,7 @@ static void clip_info(const build_ctx *b, const gv_internal_clip *c, gv_clip_inf
     info->width = cams[c->frames[0]].width;
     info->height = cams[c->frames[0]].height;
     info->offset = (c->view - 1) % 2 * b->o->interval; /* the window's first anchor mod 2n */
-    info->subsets = b->o->full_model || b->subsets == GV_INTERNAL_SUBSETS ? 0 : b->subsets;
+    info->subsets = b->params.subsets;
     for (int f = 0; f < GV_CLIP_FRAMES; f++) {
         info->frames[f] = c->frames[f];
         snprintf(info->frame_names[f], sizeof info->frame_names[f], "%s", cams[c->frames[f]].name);
@@ -270,7 +277,7 @@ int gv_internal_build(const gv_scene *scene, const gv_internal_options *o, gv_in
     int rc = gv_internal_plan(scene->n_frames, o->interval, b.subsets, b.clips, &b.count);
     gv_dataset_default_params(&b.params);
     b.params.iters = o->iters, b.params.densify = o->densify, b.params.seed = o->seed, b.params.clips_per_run = b.count;
-    b.params.subsets = o->full_model || b.subsets == GV_INTERNAL_SUBSETS ? 0 : b.subsets;
+    b.params.subsets = recorded_subsets(o, b.subsets);
     b.params.downscale = scene->downscale > 0 ? scene->downscale : 1;
     if (rc == 0) rc = data_prepare_out_dir(o->out_dir); /* as dataset build: a killed subset's temporaries go */
     int done = rc == 0 ? already_built(&b) : -1;
