@@ -22,6 +22,7 @@ typedef struct {
     gv_internal_clip *clips;
     int count;
     int subsets;                     /* K */
+    int runs;                        /* subsets that leave out an interior view: min(K, T - 2) */
     gv_dataset_params params;
 } build_ctx;
 
@@ -151,7 +152,7 @@ static int build_subset(const build_ctx *b, int p)
     char list[96], what[96];
     describe_views(views, n_views, list, sizeof list);
     if (b->o->full_model) snprintf(what, sizeof what, "do-no-harm clips: %s, the full model", b->name);
-    else snprintf(what, sizeof what, "internal pairs: %s subset %d of %d", b->name, p + 1, b->subsets);
+    else snprintf(what, sizeof what, "internal pairs: %s subset %d of %d", b->name, p + 1, b->runs);
     gv_info("%s (views %s: %d views), %d clip%s", what, list, n_views, clips, clips == 1 ? "" : "s");
     /* the full model: the seed `dataset build` would give the user's model at n */
     uint64_t seed = b->o->full_model ? gv_run_seed(b->o->seed, b->name, n)
@@ -282,14 +283,14 @@ int gv_internal_build(const gv_scene *scene, const gv_internal_options *o, gv_in
     if (rc == 0) rc = data_prepare_out_dir(o->out_dir); /* as dataset build: a killed subset's temporaries go */
     int done = rc == 0 ? already_built(&b) : -1;
     if (done < 0) rc = -1;
-    for (int p = 0; rc == 0 && !done && p < (o->full_model ? 1 : b.subsets); p++) {
-        int present = 1, clips = 0;
+    b.runs = b.subsets < b.count ? b.subsets : b.count; /* subsets 0 .. runs - 1 render the T - 2 clips */
+    for (int p = 0; rc == 0 && !done && p < (o->full_model ? 1 : b.runs); p++) {
+        int present = 1;
         for (int i = 0; present && i < b.count; i++)
-            if (in_pass(&b, i, p)) present = clip_present(&b, i), clips++;
-        if (clips == 0) continue; /* K beyond the interior views: this subset leaves none out */
+            if (in_pass(&b, i, p)) present = clip_present(&b, i);
         if (present) {
             if (o->full_model) gv_info("do-no-harm clips: %s: already built", b.name);
-            else gv_info("internal pairs: %s subset %d of %d: its clips are already built", b.name, p + 1, b.subsets);
+            else gv_info("internal pairs: %s subset %d of %d: its clips are already built", b.name, p + 1, b.runs);
             continue;
         }
         rc = build_subset(&b, p);
