@@ -140,7 +140,7 @@ static void describe_views(const int *v, int count, char *out, size_t size)
 /* Trains the model of pass p (subset p, or the full model) and writes its clips. */
 static int build_subset(const build_ctx *b, int p)
 {
-    int n = b->o->interval, *views = malloc((size_t)b->scene->n_frames * sizeof *views), n_views = 0, clips = 0;
+    int n = b->o->interval, *views = malloc(2 * (size_t)b->scene->n_frames * sizeof *views), n_views = 0, clips = 0;
     if (!views) return gv_fail("out of memory for %d frames", b->scene->n_frames);
     if (b->o->full_model) {
         for (int f = 0; f < b->scene->n_frames; f += n) views[n_views++] = f;
@@ -148,12 +148,16 @@ static int build_subset(const build_ctx *b, int p)
         free(views);
         return -1;
     }
-    for (int i = 0; i < b->count; i++) clips += in_pass(b, i, p);
-    char list[96], what[96];
+    int *left_out = views + b->scene->n_frames; /* the frames this model renders with ground truth */
+    for (int i = 0; i < b->count; i++)
+        if (in_pass(b, i, p)) left_out[clips++] = b->clips[i].frames[2];
+    char list[96], rendered[96], what[96];
     describe_views(views, n_views, list, sizeof list);
+    describe_views(left_out, clips, rendered, sizeof rendered);
     if (b->o->full_model) snprintf(what, sizeof what, "do-no-harm clips: %s, the full model", b->name);
     else snprintf(what, sizeof what, "internal pairs: %s subset %d of %d", b->name, p + 1, b->runs);
-    gv_info("%s (views %s: %d views), %d clip%s", what, list, n_views, clips, clips == 1 ? "" : "s");
+    gv_info("%s (views %s: %d views), %d clip%s (view%s %s)", what, list, n_views, clips, clips == 1 ? "" : "s",
+            clips == 1 ? "" : "s", rendered);
     /* the full model: the seed `dataset build` would give the user's model at n */
     uint64_t seed = b->o->full_model ? gv_run_seed(b->o->seed, b->name, n)
                                      : gv_run_seed(b->o->seed, b->name, 2 * n) ^ ((uint64_t)p * SUBSET_SEED);
