@@ -1,6 +1,9 @@
 /* Projection of 3D Gaussians: hand-computed cases, culling, the Jacobian clamp, agreement
  * with the double-precision reference, and gradients with respect to means, log-scales
  * and quaternions against central finite differences of the reference. */
+#include <omp.h>
+#include <string.h>
+
 #include "splat_fixtures.h"
 
 /* Camera at the origin looking down +z: 40x24, fx = fy = 20, principal point (20, 12). */
@@ -220,6 +223,57 @@ static void test_culling_agrees_with_reference(void)
     gv_gaussians_free(&g);
 }
 
+/* The forward runs eight Gaussians at a time in chunks of 256, repeating the last Gaussian
+ * of a short group to fill the lanes: each Gaussian's outputs must be the same bits whatever
+ * its neighbours, the slice it is projected in and the thread count. Mixed on- and
+ * off-screen Gaussians, some behind the camera, some with non-finite parameters. */
+static void test_lanes_independent(void)
+{
+    gv_splat_view v;
+    fix_view(&v, 40, 24, 31);
+    enum { N = 1037 };
+    gv_gaussians g;
+    fix_gaussians(&g, N, 0, &v, 32);
+    gv_rng r;
+    gv_rng_init(&r, 33);
+    for (int i = 0; i < N; i++) {
+        double u = -60 + 160 * gv_rng_uniform(&r), w = -40 + 104 * gv_rng_uniform(&r);
+        double z = (i % 5 == 0 ? -1 : 0.25) + 6 * gv_rng_uniform(&r);
+        fix_unproject(&v, u, w, z, g.means + 3 * i);
+    }
+    g.means[3 * 7 + 2] = NAN, g.scales[3 * 100] = INFINITY, g.rotations[4 * 300] = NAN;
+    for (int j = 0; j < 3; j++) g.scales[3 * 501 + j] = 12; /* 10^6 pixels: the radius cap */
+    static float m2[2 * N], conic[3 * N], depth[N], m2_b[2 * N], conic_b[3 * N], depth_b[N];
+    static int radii[N], radii_b[N];
+    gv_splat_project_forward(N, g.means, g.scales, g.rotations, &v, m2, conic, depth, radii);
+    /* one at a time, then in slices of 13 (never a whole group of eight at the end) */
+    for (int step = 1; step <= 13; step += 12)
+        for (int lo = 0; lo < N; lo += step) {
+            int n = lo + step <= N ? step : N - lo;
+            gv_splat_project_forward(n, g.means + 3 * lo, g.scales + 3 * lo,
+                                     g.rotations + 4 * lo, &v, m2_b + 2 * lo, conic_b + 3 * lo,
+                                     depth_b + lo, radii_b + lo);
+            CHECK(memcmp(m2_b + 2 * lo, m2 + 2 * lo, sizeof(float) * 2 * n) == 0);
+            CHECK(memcmp(conic_b + 3 * lo, conic + 3 * lo, sizeof(float) * 3 * n) == 0);
+            CHECK(memcmp(depth_b + lo, depth + lo, sizeof(float) * n) == 0);
+            CHECK(memcmp(radii_b + lo, radii + lo, sizeof(int) * n) == 0);
+        }
+    int threads = omp_get_max_threads();
+    omp_set_num_threads(3);
+    gv_splat_project_forward(N, g.means, g.scales, g.rotations, &v, m2_b, conic_b, depth_b,
+                             radii_b);
+    omp_set_num_threads(threads);
+    CHECK(memcmp(radii_b, radii, sizeof radii) == 0 && memcmp(conic_b, conic, sizeof conic) == 0);
+    int visible = 0;
+    for (int i = 0; i < N; i++) visible += radii[i] > 0;
+    printf("  %d Gaussians alone, in slices of 13 and on 3 threads: the same bits (%d visible)\n",
+           N, visible);
+    CHECK(visible > N / 8 && visible < N - N / 8);
+    CHECK(radii[7] == 0 && radii[100] == 0 && radii[300] == 0);
+    CHECK(radii[501] == GV_SPLAT_MAX_RADIUS);
+    gv_gaussians_free(&g);
+}
+
 /* L = w_mean . mean2d + w_conic . conic of one Gaussian through the reference. */
 typedef struct {
     const gv_splat_view *view;
@@ -309,6 +363,7 @@ int main(void)
     test_jacobian_clamp();
     test_reference_agreement();
     test_culling_agrees_with_reference();
+    test_lanes_independent();
     test_gradients();
     return check_summary();
 }

@@ -1,6 +1,7 @@
-/* Projection of 3D Gaussians to screen-space 2D Gaussians (EWA splatting) and its backward
- * (reference doc sections 2, 4, 5, 6, 10.2-10.4, 10.6, 10.7; [RAST] forward.cu
- * preprocessCUDA/computeCov2D/computeCov3D and backward.cu). */
+/* Projection of 3D Gaussians to screen-space 2D Gaussians (EWA splatting): the views, one
+ * Gaussian's forward as the backward recomputes it, and the backward (reference doc sections
+ * 2, 4, 5, 6, 10.2-10.4, 10.6, 10.7; [RAST] forward.cu preprocessCUDA/computeCov2D/
+ * computeCov3D and backward.cu). The forward over all Gaussians is projection_forward.c. */
 #include <math.h>
 #include <string.h>
 
@@ -74,7 +75,8 @@ static float normalize_quat(const float *raw, float q[4])
 }
 
 /* Everything the forward computes for one Gaussian, kept so the backward can recompute it
- * instead of storing it. */
+ * instead of storing it. projection_forward.c runs the same arithmetic eight Gaussians at a
+ * time, in the same order of operations. */
 typedef struct {
     float t[3];          /* camera-space mean */
     float tx_c, ty_c;    /* x, y clamped for the Jacobian */
@@ -127,85 +129,6 @@ static int project_state(const float *mean, const float *log_scale, const float 
     p->b = U[0] * U[3] + U[1] * U[4] + U[2] * U[5];
     p->c = U[3] * U[3] + U[4] * U[4] + U[5] * U[5] + GV_SPLAT_DILATION;
     return 1;
-}
-
-/* Returns 1 when the Gaussian is certainly culled by its tile rectangle, cheaply, from a
- * bound on its radius: lambda_1 = mid + sqrt(max(0.1, mid^2 - det)) <= a + c + 0.32, and
- * a + c = trace(J W Sigma W^T J^T) + 0.6 <= |J|_F^2 max(s)^2 + 0.6 (W is a rotation), so
- * radius <= 3 sqrt(|J|_F^2 max(s)^2 + 0.92), taken with a margin for rounding. Gaussians
- * it does not settle go through the full computation, so the result is unchanged. */
-static int surely_off_screen(const float *mean, const float *log_scale, const gv_splat_view *v,
-                             int tiles_x, int tiles_y)
-{
-    const float *W = v->R;
-    float t[3];
-    for (int i = 0; i < 3; i++)
-        t[i] = W[i * 3] * mean[0] + W[i * 3 + 1] * mean[1] + W[i * 3 + 2] * mean[2] + v->t[i];
-    if (!(t[2] > GV_SPLAT_NEAR) || !isfinite(t[2])) return 0; /* decided by the full path */
-    float u = min_f(max_f(t[0] / t[2], -v->lim_x_neg), v->lim_x_pos);
-    float w = min_f(max_f(t[1] / t[2], -v->lim_y_neg), v->lim_y_pos);
-    float jx = v->fx / t[2], jy = v->fy / t[2];
-    float j2 = jx * jx * (1 + u * u) + jy * jy * (1 + w * w);
-    float s = expf(max_f(max_f(log_scale[0], log_scale[1]), log_scale[2]));
-    float bound = 3.0f * sqrtf(j2 * s * s + 0.92f) * 1.01f + 2.0f;
-    float mx = v->fx * t[0] / t[2] + v->cx, my = v->fy * t[1] / t[2] + v->cy;
-    if (!(bound < (float)GV_SPLAT_MAX_RADIUS) || !isfinite(mx) || !isfinite(my)) return 0;
-    int rect[4];
-    gv_splat_tile_rect(mx, my, (int)bound + 1, tiles_x, tiles_y, rect);
-    return (rect[2] - rect[0]) * (rect[3] - rect[1]) == 0;
-}
-
-/* Projects Gaussian i; returns its radius (0 = culled). */
-static int project_one(const float *mean, const float *log_scale, const float *rot,
-                       const gv_splat_view *v, int tiles_x, int tiles_y, float *mean2d,
-                       float *conic, float *depth)
-{
-    if (surely_off_screen(mean, log_scale, v, tiles_x, tiles_y)) return 0;
-    projection_state p;
-    if (!project_state(mean, log_scale, rot, v, &p)) return 0;
-    float det = p.a * p.c - p.b * p.b;
-    if (!(det > 0) || !isfinite(det)) return 0; /* reference: det == 0 culls */
-    float inv = 1.0f / det;
-
-    /* 3-sigma of the larger eigenvalue, with the reference's floor of 0.1 (section 6.1). */
-    float mid = 0.5f * (p.a + p.c);
-    float lambda1 = mid + sqrtf(max_f(mid * mid - det, 0.1f));
-    float lambda2 = mid - sqrtf(max_f(mid * mid - det, 0.1f));
-    float r = ceilf(3.0f * sqrtf(max_f(lambda1, lambda2)));
-    if (!isfinite(r)) return 0;
-    int radius = r > (float)GV_SPLAT_MAX_RADIUS ? GV_SPLAT_MAX_RADIUS : (int)r;
-
-    float mx = v->fx * p.t[0] / p.t[2] + v->cx;
-    float my = v->fy * p.t[1] / p.t[2] + v->cy;
-    if (!isfinite(mx) || !isfinite(my)) return 0;
-    int rect[4];
-    gv_splat_tile_rect(mx, my, radius, tiles_x, tiles_y, rect);
-    if ((rect[2] - rect[0]) * (rect[3] - rect[1]) == 0) return 0;
-
-    mean2d[0] = mx, mean2d[1] = my;
-    conic[0] = p.c * inv, conic[1] = -p.b * inv, conic[2] = p.a * inv;
-    *depth = p.t[2];
-    return radius;
-}
-
-void gv_splat_project_forward(int n, const float *means, const float *scales,
-                              const float *rotations, const gv_splat_view *view,
-                              float *means2d, float *conics, float *depths, int *radii)
-{
-    int tiles_x = (view->width + GV_SPLAT_TILE - 1) / GV_SPLAT_TILE;
-    int tiles_y = (view->height + GV_SPLAT_TILE - 1) / GV_SPLAT_TILE;
-#pragma omp parallel for schedule(static)
-    for (int i = 0; i < n; i++) {
-        int r = project_one(means + 3 * (size_t)i, scales + 3 * (size_t)i,
-                            rotations + 4 * (size_t)i, view, tiles_x, tiles_y,
-                            means2d + 2 * (size_t)i, conics + 3 * (size_t)i, depths + i);
-        radii[i] = r;
-        if (r == 0) {
-            means2d[2 * (size_t)i] = means2d[2 * (size_t)i + 1] = 0;
-            conics[3 * (size_t)i] = conics[3 * (size_t)i + 1] = conics[3 * (size_t)i + 2] = 0;
-            depths[i] = 0;
-        }
-    }
 }
 
 /* d L / d q (raw quaternion) from d L / d Rq (section 10.6 and the normalisation). */
