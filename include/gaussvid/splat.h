@@ -46,7 +46,7 @@ int gv_splat_view_init(gv_splat_view *v, int width, int height, double fx, doubl
 /* The same from a scene camera. */
 int gv_splat_view_from_camera(gv_splat_view *v, const gv_camera *cam);
 
-/* ---- projection.c ----------------------------------------------------------------------
+/* ---- view.c, projection_forward.c, projection_backward.c ---------------------------------
  * Per Gaussian: s = exp(log-scale), q = normalised quaternion, Sigma = R(q) S S R(q)^T;
  * view transform; near cull; EWA 2D covariance J W Sigma W^T J^T with the Jacobian clamp and
  * the 0.3 dilation; conic; 3-sigma radius (3DGS formula); means2d; depth; tile rectangle

@@ -1,7 +1,5 @@
-/* The forward projection, eight Gaussians at a time (simd8.h lanes); the per-Gaussian
- * arithmetic is that of projection.c's project_state, which the backward recomputes, in the
- * same order of operations, so every output is the same float as one Gaussian at a time
- * would give (this file is compiled without fused multiply-adds, CMakeLists.txt).
+/* The forward projection (reference doc sections 2, 4-6; [RAST] forward.cu preprocessCUDA,
+ * computeCov2D, computeCov3D), eight Gaussians at a time (projection_lanes.h).
  *
  * Two passes over each chunk of Gaussians:
  *  1. a cheap bound on the radius settles most of the Gaussians that miss the image:
@@ -9,39 +7,10 @@
  *     trace(J W Sigma W^T J^T) + 0.6 <= |J|_F^2 max(s)^2 + 0.6 (W is a rotation), so
  *     radius <= 3 sqrt(|J|_F^2 max(s)^2 + 0.92), taken with a margin for rounding; when even
  *     that radius gives an empty tile rectangle, the Gaussian is culled;
- *  2. the others, gathered eight at a time, go through the whole projection.
- * The exponentials of the log-scales stay libm's expf, lane by lane: a vector exponential
- * would round differently. */
-#include <math.h>
+ *  2. the others, gathered eight at a time, go through the whole projection. */
+#include "splat/projection_lanes.h"
 
-#include "gaussvid/splat.h"
-#include "splat/simd8.h"
-
-enum { LANES = 8, CHUNK = 256 };
-
-/* a > b ? a : b and a < b ? a : b, lane by lane (NaN gives the second operand). */
-SIMD8_INLINE f8 max8(f8 a, f8 b)
-{
-    return f8_select(a > b, a, b);
-}
-
-SIMD8_INLINE f8 min8(f8 a, f8 b)
-{
-    return f8_select(a < b, a, b);
-}
-
-/* All ones where x is finite: x - x is 0 there and NaN for infinities and NaN. */
-SIMD8_INLINE i8 finite8(f8 x)
-{
-    return (x - x) == f8_splat(0.0f);
-}
-
-SIMD8_INLINE f8 sqrt8(f8 x)
-{
-    f8 r;
-    for (int l = 0; l < LANES; l++) r[l] = __builtin_sqrtf(x[l]);
-    return r;
-}
+enum { CHUNK = 256 };
 
 /* ceilf(x) for x >= 0, infinity or NaN: below 2^24 through the truncating conversion, above
  * it x is already an integer (and infinity and NaN are returned as they are). */
@@ -74,31 +43,6 @@ SIMD8_INLINE i8 rect_empty8(f8 mx, f8 my, i8 radius, int tiles_x, int tiles_y)
     return (x1 - x0 == 0) | (y1 - y0 == 0);
 }
 
-/* Eight Gaussians' rows, lane by lane (rows of the model arrays). */
-typedef struct {
-    f8 mean[3], log_scale[3], rot[4];
-} lanes_in;
-
-SIMD8_INLINE void gather(const int idx[LANES], const float *means, const float *scales,
-                         const float *rotations, lanes_in *g)
-{
-    for (int l = 0; l < LANES; l++) {
-        size_t i = (size_t)idx[l];
-        for (int j = 0; j < 3; j++)
-            g->mean[j][l] = means[3 * i + j], g->log_scale[j][l] = scales[3 * i + j];
-        for (int j = 0; j < 4; j++) g->rot[j][l] = rotations[4 * i + j];
-    }
-}
-
-/* Camera-space mean t = W mean + t_view. */
-SIMD8_INLINE void camera_point(const gv_splat_view *v, const lanes_in *g, f8 t[3])
-{
-    const float *W = v->R;
-    for (int i = 0; i < 3; i++)
-        t[i] = W[i * 3] * g->mean[0] + W[i * 3 + 1] * g->mean[1] + W[i * 3 + 2] * g->mean[2] +
-               v->t[i];
-}
-
 /* The pixel position of the mean; finite where ok. */
 SIMD8_INLINE void pixel_mean(const gv_splat_view *v, const f8 t[3], f8 *mx, f8 *my)
 {
@@ -119,12 +63,7 @@ SIMD8_INLINE i8 surely_off_screen8(const gv_splat_view *v, const lanes_in *g, in
     f8 w = min8(max8(t[1] / t[2], f8_splat(-v->lim_y_neg)), f8_splat(v->lim_y_pos));
     f8 jx = v->fx / t[2], jy = v->fy / t[2];
     f8 j2 = jx * jx * (1 + u * u) + jy * jy * (1 + w * w);
-    f8 s;
-    for (int l = 0; l < LANES; l++) {
-        float a = g->log_scale[0][l], b = g->log_scale[1][l], c = g->log_scale[2][l];
-        float m = a > b ? a : b;
-        s[l] = expf(m > c ? m : c);
-    }
+    f8 s = expf8(max8(max8(g->log_scale[0], g->log_scale[1]), g->log_scale[2]));
     f8 bound = 3.0f * sqrt8(j2 * s * s + 0.92f) * 1.01f + 2.0f;
     f8 mx, my;
     pixel_mean(v, t, &mx, &my);
@@ -139,47 +78,9 @@ SIMD8_INLINE void project8(const gv_splat_view *v, const lanes_in *g, const int 
                            int count, int tiles_x, int tiles_y, float *means2d, float *conics,
                            float *depths, int *radii)
 {
-    const float *W = v->R;
-    f8 t[3];
-    camera_point(v, g, t);
-    f8 tz = t[2];
-    i8 ok = (tz > GV_SPLAT_NEAR) & finite8(tz);
-
-    /* Jacobian of the perspective map at the clamped point. */
-    f8 tx_c = min8(max8(t[0] / tz, f8_splat(-v->lim_x_neg)), f8_splat(v->lim_x_pos)) * tz;
-    f8 ty_c = min8(max8(t[1] / tz, f8_splat(-v->lim_y_neg)), f8_splat(v->lim_y_pos)) * tz;
-    f8 J00 = v->fx / tz, J02 = -v->fx * tx_c / (tz * tz);
-    f8 J11 = v->fy / tz, J12 = -v->fy * ty_c / (tz * tz);
-    f8 Am[6];
-    for (int j = 0; j < 3; j++) {
-        Am[j] = J00 * W[j] + J02 * W[6 + j];
-        Am[3 + j] = J11 * W[3 + j] + J12 * W[6 + j];
-    }
-
-    /* M = R(q) diag(s), Sigma = M M^T. */
-    f8 s[3];
-    for (int j = 0; j < 3; j++)
-        for (int l = 0; l < LANES; l++) s[j][l] = expf(g->log_scale[j][l]);
-    const f8 *r = g->rot;
-    f8 norm = max8(sqrt8(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]),
-                   f8_splat(1e-12f));
-    f8 qw = r[0] / norm, x = r[1] / norm, y = r[2] / norm, z = r[3] / norm;
-    f8 R[9];
-    R[0] = 1 - 2 * (y * y + z * z), R[1] = 2 * (x * y - qw * z), R[2] = 2 * (x * z + qw * y);
-    R[3] = 2 * (x * y + qw * z), R[4] = 1 - 2 * (x * x + z * z), R[5] = 2 * (y * z - qw * x);
-    R[6] = 2 * (x * z - qw * y), R[7] = 2 * (y * z + qw * x), R[8] = 1 - 2 * (x * x + y * y);
-    f8 M[9];
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) M[i * 3 + j] = R[i * 3 + j] * s[j];
-
-    /* Sigma2D = (Am M)(Am M)^T plus the dilation. */
-    f8 U[6];
-    for (int k = 0; k < 2; k++)
-        for (int j = 0; j < 3; j++)
-            U[k * 3 + j] = Am[k * 3] * M[j] + Am[k * 3 + 1] * M[3 + j] + Am[k * 3 + 2] * M[6 + j];
-    f8 a = U[0] * U[0] + U[1] * U[1] + U[2] * U[2] + GV_SPLAT_DILATION;
-    f8 b = U[0] * U[3] + U[1] * U[4] + U[2] * U[5];
-    f8 c = U[3] * U[3] + U[4] * U[4] + U[5] * U[5] + GV_SPLAT_DILATION;
+    lanes_state p;
+    i8 ok = project_state8(v, g, &p);
+    f8 a = p.a, b = p.b, c = p.c, tz = p.t[2];
 
     f8 det = a * c - b * b;
     ok &= (det > 0.0f) & finite8(det); /* the reference culls det == 0 */
@@ -195,7 +96,7 @@ SIMD8_INLINE void project8(const gv_splat_view *v, const lanes_in *g, const int 
                           __builtin_convertvector(f8_mask(ok & ~huge, rad), i8));
 
     f8 mx, my;
-    pixel_mean(v, t, &mx, &my);
+    pixel_mean(v, p.t, &mx, &my);
     ok &= finite8(mx) & finite8(my);
     ok &= ~rect_empty8(mx, my, radius, tiles_x, tiles_y);
 
@@ -218,12 +119,6 @@ static inline void cull(size_t i, float *means2d, float *conics, float *depths, 
     means2d[2 * i] = means2d[2 * i + 1] = 0;
     conics[3 * i] = conics[3 * i + 1] = conics[3 * i + 2] = 0;
     depths[i] = 0;
-}
-
-/* Indices first .. first + count - 1 into lanes; the last is repeated to fill eight. */
-static inline void lane_indices(const int *list, int count, int idx[LANES])
-{
-    for (int l = 0; l < LANES; l++) idx[l] = list[l < count ? l : count - 1];
 }
 
 /* Gaussians [lo, hi), hi - lo <= CHUNK. */
