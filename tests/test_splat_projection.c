@@ -186,23 +186,30 @@ static void test_reference_agreement(void)
 /* Gaussians all around the view, most of them outside, of 0.5 to 60 pixels: culling (and
  * the early off-screen test in front of it) agrees with the reference Gaussian by
  * Gaussian. */
+/* n Gaussians around view v (seeds `seed` and seed + 1), most of them off-screen and every
+ * seventh behind the camera, of 0.5 to 60 pixels. */
+static void gaussians_around_view(gv_gaussians *g, int n, const gv_splat_view *v, uint64_t seed)
+{
+    fix_gaussians(g, n, 0, v, seed);
+    gv_rng r;
+    gv_rng_init(&r, seed + 1);
+    for (int i = 0; i < n; i++) {
+        double u = -120 + 280 * gv_rng_uniform(&r), w = -70 + 170 * gv_rng_uniform(&r);
+        double z = (i % 7 == 0 ? -2 : 0.3) + 8 * gv_rng_uniform(&r);
+        fix_unproject(v, u, w, z, g->means + 3 * i);
+        double sigma_px = 0.5 * exp(log(120.0) * gv_rng_uniform(&r));
+        for (int j = 0; j < 3; j++)
+            g->scales[3 * i + j] = (float)log(sigma_px * fabs(z) / v->fx * (0.3 + gv_rng_uniform(&r)));
+    }
+}
+
 static void test_culling_agrees_with_reference(void)
 {
     gv_splat_view v;
     fix_view(&v, 40, 24, 13);
     enum { N = 4000 };
     gv_gaussians g;
-    fix_gaussians(&g, N, 0, &v, 14);
-    gv_rng r;
-    gv_rng_init(&r, 15);
-    for (int i = 0; i < N; i++) {
-        double u = -120 + 280 * gv_rng_uniform(&r), w = -70 + 170 * gv_rng_uniform(&r);
-        double z = (i % 7 == 0 ? -2 : 0.3) + 8 * gv_rng_uniform(&r);
-        fix_unproject(&v, u, w, z, g.means + 3 * i);
-        double sigma_px = 0.5 * exp(log(120.0) * gv_rng_uniform(&r));
-        for (int j = 0; j < 3; j++)
-            g.scales[3 * i + j] = (float)log(sigma_px * fabs(z) / v.fx * (0.3 + gv_rng_uniform(&r)));
-    }
+    gaussians_around_view(&g, N, &v, 14);
     static float m2[2 * N], conic[3 * N], depth[N];
     static int radii[N];
     gv_splat_project_forward(N, g.means, g.scales, g.rotations, &v, m2, conic, depth, radii);
@@ -233,14 +240,7 @@ static void test_lanes_independent(void)
     fix_view(&v, 40, 24, 31);
     enum { N = 1037 };
     gv_gaussians g;
-    fix_gaussians(&g, N, 0, &v, 32);
-    gv_rng r;
-    gv_rng_init(&r, 33);
-    for (int i = 0; i < N; i++) {
-        double u = -60 + 160 * gv_rng_uniform(&r), w = -40 + 104 * gv_rng_uniform(&r);
-        double z = (i % 5 == 0 ? -1 : 0.25) + 6 * gv_rng_uniform(&r);
-        fix_unproject(&v, u, w, z, g.means + 3 * i);
-    }
+    gaussians_around_view(&g, N, &v, 32);
     g.means[3 * 7 + 2] = NAN, g.scales[3 * 100] = INFINITY, g.rotations[4 * 300] = NAN;
     for (int j = 0; j < 3; j++) g.scales[3 * 501 + j] = 12; /* 10^6 pixels: the radius cap */
     static float m2[2 * N], conic[3 * N], depth[N], m2_b[2 * N], conic_b[3 * N], depth_b[N];
@@ -268,7 +268,7 @@ static void test_lanes_independent(void)
     for (int i = 0; i < N; i++) visible += radii[i] > 0;
     printf("  %d Gaussians alone, in slices of 13 and on 3 threads: the same bits (%d visible)\n",
            N, visible);
-    CHECK(visible > N / 8 && visible < N - N / 8);
+    CHECK(visible > N / 10 && visible < N / 2);
     CHECK(radii[7] == 0 && radii[100] == 0 && radii[300] == 0);
     CHECK(radii[501] == GV_SPLAT_MAX_RADIUS);
     gv_gaussians_free(&g);
