@@ -26,6 +26,11 @@ check_rc "UNTIL=vae" $?
 check "UNTIL=vae stops after the vae stage" grep -q "^== stopped after vae" "$T/out"
 check "UNTIL=vae lists no later stage" test "$(grep -c '^== ' "$T/out")" -eq 7
 
+GAUSSVID="$G" TRAIN_SEEDS="11 21" bash "$SCRIPT" "$T/w3" >"$T/out" 2>"$T/err"
+check_rc "a held-out room among TRAIN_SEEDS exits 1" $(($? == 1 ? 0 : 1))
+one_line "room 21 is held out"
+check "nothing made for it" test ! -e "$T/w3"
+
 GAUSSVID="$T/nowhere" bash "$SCRIPT" "$T/w2" >"$T/out" 2>"$T/err"
 check_rc "missing program exits 1" $(($? == 1 ? 0 : 1))
 one_line "not built"
