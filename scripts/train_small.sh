@@ -50,7 +50,9 @@ N_MAX=${N_MAX:-28}
 [ -x "$G" ] || { echo "train_small.sh: $G: not built (run make)" >&2; exit 1; }
 for s in $TRAIN_SEEDS; do
   case "$s" in
-    21 | 22) echo "train_small.sh: TRAIN_SEEDS: room $s is held out (21 is evaluated, 22 chose the sampler)" >&2; exit 1 ;;
+    21 | 22)
+      echo "train_small.sh: TRAIN_SEEDS: room $s is held out (21 is evaluated, 22 chose the sampler)" >&2
+      exit 1 ;;
     *[!0-9]* | "") echo "train_small.sh: TRAIN_SEEDS: '$s' is not a room seed" >&2; exit 1 ;;
   esac
 done

@@ -199,7 +199,8 @@ static void gaussians_around_view(gv_gaussians *g, int n, const gv_splat_view *v
         fix_unproject(v, u, w, z, g->means + 3 * i);
         double sigma_px = 0.5 * exp(log(120.0) * gv_rng_uniform(&r));
         for (int j = 0; j < 3; j++)
-            g->scales[3 * i + j] = (float)log(sigma_px * fabs(z) / v->fx * (0.3 + gv_rng_uniform(&r)));
+            g->scales[3 * i + j] =
+                (float)log(sigma_px * fabs(z) / v->fx * (0.3 + gv_rng_uniform(&r)));
     }
 }
 
