@@ -12,6 +12,8 @@
 #   QUICK=1      a smoke run of every stage in a few minutes (tiny scenes, few steps): checks
 #                that the stages chain, measures nothing
 #   Stage sizes: ITERS, INTERVALS, CLIPS_PER_RUN, VAE_STEPS, PRETRAIN_STEPS, TRAIN_STEPS, BATCH
+#   DENSIFY      the artifact runs' density control (default reference; ITERS=1500 DENSIFY=lean
+#                gives the same held-out statistics at a quarter of the CPU: docs/TRAINING.md)
 #   TRAIN_SEEDS  the procedural rooms trained on (default "11 12 13"; never 21, the held-out
 #                room, nor 22, on which the sampler was chosen)
 #   UNTIL=NAME   stop after the stage NAME (synth room-K, dataset, vae, pretrain, train, eval)
@@ -46,6 +48,7 @@ else
   SHARED_SCENES="courtyard livingroom"
 fi
 N_MAX=${N_MAX:-28}
+DENSIFY=${DENSIFY:-reference}
 
 [ -x "$G" ] || { echo "train_small.sh: $G: not built (run make)" >&2; exit 1; }
 for s in $TRAIN_SEEDS; do
@@ -98,7 +101,7 @@ eval_list=$(IFS=,; echo "${eval_names[*]}")
 #    dataset build resumes by itself; its manifest lists both splits.
 build_dataset() {
   "$G" dataset build --scenes "${train_scenes[@]}" "${eval_scenes[@]}" --eval-scenes "$eval_list" \
-    --intervals "$INTERVALS" --iters "$ITERS" --clips-per-run "$CLIPS_PER_RUN" --sampling random \
+    --intervals "$INTERVALS" --iters "$ITERS" --densify "$DENSIFY" --clips-per-run "$CLIPS_PER_RUN" --sampling random \
     --seed 0 --jobs 2 --out "$W/data"
   touch "$W/data/.complete"
 }

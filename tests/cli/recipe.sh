@@ -26,6 +26,11 @@ check_rc "UNTIL=vae" $?
 check "UNTIL=vae stops after the vae stage" grep -q "^== stopped after vae" "$T/out"
 check "UNTIL=vae lists no later stage" test "$(grep -c '^== ' "$T/out")" -eq 7
 
+GAUSSVID="$G" QUICK=1 DENSIFY=lean UNTIL=dataset OMP_NUM_THREADS=1 bash "$SCRIPT" "$T/w4" >"$T/out" 2>"$T/err"
+check_rc "DENSIFY=lean" $?
+check "DENSIFY=lean builds the artifacts with the lean control" grep -q '"densify":[[:space:]]*"lean"' "$T/w4/data/manifest.json"
+check "the default recipe's are the reference control's" grep -q '"densify":[[:space:]]*"reference"' "$T/w/data/manifest.json"
+
 GAUSSVID="$G" TRAIN_SEEDS="11 21" bash "$SCRIPT" "$T/w3" >"$T/out" 2>"$T/err"
 check_rc "a held-out room among TRAIN_SEEDS exits 1" $(($? == 1 ? 0 : 1))
 one_line "room 21 is held out"
