@@ -184,6 +184,8 @@ typedef struct {
     gv_manifest_clip *clips;
 } gv_manifest;
 
+/* The build options as `dataset build` flags ("--iters 3000 --densify reference ..."). */
+void gv_dataset_params_flags(const gv_dataset_params *p, char *out, size_t size);
 void gv_manifest_init(gv_manifest *m, const gv_dataset_params *params);
 void gv_manifest_free(gv_manifest *m);
 /* Reads dir/manifest.json; *found = 0 (and an empty manifest with zeroed params) when there

@@ -138,10 +138,9 @@ static void print_row(const char *n, const gv_dataset_stats_row *r)
 static void print_text(const char *dir, const gv_dataset_stats *s)
 {
     printf("dataset %s: %d clips from %d runs of %d scenes\n", dir, s->n_clips, s->n_runs, s->n_scenes);
-    printf("built with --iters %d --anchor-gap %d --sampling %s --clips-per-run %d --seed %llu "
-           "--downscale %d\n\n", s->params.iters, s->params.anchor_gap,
-           gv_sampling_name(s->params.sampling), s->params.clips_per_run,
-           (unsigned long long)s->params.seed, s->params.downscale);
+    char flags[240];
+    gv_dataset_params_flags(&s->params, flags, sizeof flags);
+    printf("built with %s\n\n", flags);
     printf("%5s %12s %11s %5s %8s %14s %14s %8s\n", "n", "clips train", "clips eval", "runs",
            "frames", "baseline PSNR", "baseline SSIM", "s/run");
     for (int i = 0; i < s->n_rows; i++) {

@@ -71,20 +71,12 @@ static int check_params(const gv_dataset_params *p)
     return 0;
 }
 
-/* The build options as `dataset build` flags. */
-static void params_as_flags(const gv_dataset_params *p, char *out, size_t size)
-{
-    snprintf(out, size, "--iters %d --densify %s --anchor-gap %d --sampling %s --clips-per-run %d "
-             "--seed %llu --downscale %d", p->iters, gv_splat_densify_mode_name(p->densify), p->anchor_gap,
-             gv_sampling_name(p->sampling), p->clips_per_run, (unsigned long long)p->seed, p->downscale);
-}
-
 /* The options of a folder's existing runs must be this build's: one dataset, one recipe. */
 static int same_params(const char *dir, const gv_dataset_params *old, const gv_dataset_params *now)
 {
     char a[240], b[240];
-    params_as_flags(old, a, sizeof a);
-    params_as_flags(now, b, sizeof b);
+    gv_dataset_params_flags(old, a, sizeof a);
+    gv_dataset_params_flags(now, b, sizeof b);
     if (strcmp(a, b))
         return gv_fail("%s/manifest.json: the dataset was built with %s; this build asks for %s "
                        "(use another --out folder)", dir, a, b);

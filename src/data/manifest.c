@@ -4,6 +4,7 @@
  * it lists exactly the runs that finished. */
 #include <cjson/cJSON.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -39,6 +40,13 @@ int gv_run_file_name(char *out, size_t size, const char *scene, int n)
     if ((size_t)snprintf(out, size, "runs/%s_n%02d.json", scene, n) >= size)
         return gv_fail("%s: run file name too long", scene);
     return 0;
+}
+
+void gv_dataset_params_flags(const gv_dataset_params *p, char *out, size_t size)
+{
+    snprintf(out, size, "--iters %d --densify %s --anchor-gap %d --sampling %s --clips-per-run %d "
+             "--seed %llu --downscale %d", p->iters, gv_splat_densify_mode_name(p->densify), p->anchor_gap,
+             gv_sampling_name(p->sampling), p->clips_per_run, (unsigned long long)p->seed, p->downscale);
 }
 
 int gv_manifest_find_run(const gv_manifest *m, const char *scene, int n)

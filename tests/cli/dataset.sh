@@ -90,7 +90,7 @@ has "frame_indices"
 # stats: table and JSON.
 expect 0 "stats" -- "$G" dataset stats "$D"
 has "4 clips from 2 runs of 2 scenes"
-has "--iters 20 --anchor-gap 1 --sampling uniform --clips-per-run 2 --seed 5"
+has "--iters 20 --densify reference --anchor-gap 1 --sampling uniform --clips-per-run 2 --seed 5"
 if grep -qE '^ +6 +2 +2 +2 +22 ' "$T/out"; then ok; else bad "stats row for n=6: $(cat "$T/out")"; fi
 expect 0 "stats json" -- "$G" dataset stats "$D" --json
 has '"per_n"'
