@@ -184,8 +184,13 @@ typedef struct {
     gv_manifest_clip *clips;
 } gv_manifest;
 
-/* The build options as `dataset build` flags ("--iters 3000 --densify reference ..."). */
+/* The build options as `dataset build` flags ("--iters 3000 --densify reference ..."); out
+ * holds GV_DATASET_FLAGS_MAX bytes. */
+#define GV_DATASET_FLAGS_MAX 240
 void gv_dataset_params_flags(const gv_dataset_params *p, char *out, size_t size);
+/* The build options as the manifest's "params" object (a new cJSON object, the caller's). */
+struct cJSON;
+struct cJSON *gv_dataset_params_json(const gv_dataset_params *p);
 void gv_manifest_init(gv_manifest *m, const gv_dataset_params *params);
 void gv_manifest_free(gv_manifest *m);
 /* Reads dir/manifest.json; *found = 0 (and an empty manifest with zeroed params) when there

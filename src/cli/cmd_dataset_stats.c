@@ -103,13 +103,7 @@ static int print_json(const char *dir, const gv_dataset_stats *s, int runs)
 {
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "dataset", dir);
-    cJSON *p = cJSON_AddObjectToObject(root, "params");
-    cJSON_AddNumberToObject(p, "iters", s->params.iters);
-    cJSON_AddNumberToObject(p, "anchor_gap", s->params.anchor_gap);
-    cJSON_AddStringToObject(p, "sampling", gv_sampling_name(s->params.sampling));
-    cJSON_AddNumberToObject(p, "clips_per_run", s->params.clips_per_run);
-    cJSON_AddNumberToObject(p, "seed", (double)s->params.seed);
-    cJSON_AddNumberToObject(p, "downscale", s->params.downscale);
+    cJSON_AddItemToObject(root, "params", gv_dataset_params_json(&s->params)); /* as the manifest has them */
     cJSON_AddNumberToObject(root, "scenes", s->n_scenes);
     cJSON_AddNumberToObject(root, "runs", s->n_runs);
     cJSON_AddNumberToObject(root, "clips", s->n_clips);
@@ -138,7 +132,7 @@ static void print_row(const char *n, const gv_dataset_stats_row *r)
 static void print_text(const char *dir, const gv_dataset_stats *s)
 {
     printf("dataset %s: %d clips from %d runs of %d scenes\n", dir, s->n_clips, s->n_runs, s->n_scenes);
-    char flags[240];
+    char flags[GV_DATASET_FLAGS_MAX];
     gv_dataset_params_flags(&s->params, flags, sizeof flags);
     printf("built with %s\n\n", flags);
     printf("%5s %12s %11s %5s %8s %14s %14s %8s\n", "n", "clips train", "clips eval", "runs",

@@ -74,7 +74,7 @@ static int check_params(const gv_dataset_params *p)
 /* The options of a folder's existing runs must be this build's: one dataset, one recipe. */
 static int same_params(const char *dir, const gv_dataset_params *old, const gv_dataset_params *now)
 {
-    char a[240], b[240];
+    char a[GV_DATASET_FLAGS_MAX], b[GV_DATASET_FLAGS_MAX];
     gv_dataset_params_flags(old, a, sizeof a);
     gv_dataset_params_flags(now, b, sizeof b);
     if (strcmp(a, b))

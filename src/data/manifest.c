@@ -109,7 +109,7 @@ int gv_manifest_add_run(gv_manifest *m, const gv_manifest_run *run,
 
 /* ---- writing ------------------------------------------------------------------------ */
 
-static cJSON *params_json(const gv_dataset_params *p)
+cJSON *gv_dataset_params_json(const gv_dataset_params *p)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddNumberToObject(o, "iters", p->iters);
@@ -128,7 +128,7 @@ static cJSON *manifest_json(const gv_manifest *m)
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "format", GV_MANIFEST_FORMAT);
     cJSON_AddNumberToObject(root, "format_version", GV_MANIFEST_FORMAT_VERSION);
-    cJSON_AddItemToObject(root, "params", params_json(&m->params));
+    cJSON_AddItemToObject(root, "params", gv_dataset_params_json(&m->params));
     cJSON *runs = cJSON_AddArrayToObject(root, "runs");
     for (int i = 0; i < m->n_runs; i++) {
         const gv_manifest_run *r = &m->runs[i];
