@@ -94,6 +94,7 @@ has "--iters 20 --densify reference --anchor-gap 1 --sampling uniform --clips-pe
 if grep -qE '^ +6 +2 +2 +2 +22 ' "$T/out"; then ok; else bad "stats row for n=6: $(cat "$T/out")"; fi
 expect 0 "stats json" -- "$G" dataset stats "$D" --json
 has '"per_n"'
+has '"densify":	"reference"'
 has '"clips_eval":	2'
 # --runs: one Markdown row per run, and the same in the JSON (with the training views' scores).
 expect 0 "stats runs" -- "$G" dataset stats "$D" --runs
