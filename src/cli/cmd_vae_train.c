@@ -25,7 +25,7 @@ int cmd_vae_train(int argc, char **argv)
     int downscale = 1, eval_every = 0;
     const gv_flag own[] = {
         {"scenes", GV_FLAG_LIST, &scenes, "DIR...", "scene folders to train on (COLMAP sparse/0 or transforms.json)", 1},
-        {"eval-scenes", GV_FLAG_LIST, &eval_scenes, "DIR...", "scene folders of the held-out evaluation", 0},
+        {"eval-scenes", GV_FLAG_LIST, &eval_scenes, "DIR...", "scene folders of the held-out evaluation (at the last step, and every --eval-every)", 0},
         {"config", GV_FLAG_STRING, &config, "PRESET|FILE", "model config whose VAE is trained (default small)", 0},
         {"crop", GV_FLAG_STRING, &crop, "HxW", "training crop, multiples of the spatial factor (default 64x64)", 0},
         {"frames", GV_FLAG_INT, &o.frames, "N", "frames per clip, 1 + k x temporal factor (default 5)", 0},

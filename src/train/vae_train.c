@@ -194,7 +194,9 @@ int gv_vae_train(const gv_model_config *c, const gv_vae_frames *train, const gv_
         avg_mse += a * (mse - avg_mse);
         gv_progress_update(&bar, step + 1 - start, "step %ld  loss %.4f  psnr %.2f dB", step + 1, avg_loss, psnr_of(avg_mse));
         gv_vae_eval_result e, *ep = NULL;
-        if (eval && o->evaluate && o->eval_every > 0 && ((step + 1) % o->eval_every == 0 || step + 1 == o->steps)) {
+        /* Held-out scenes are always measured at the last step; --eval-every adds points on the way. */
+        int periodic = o->eval_every > 0 && (step + 1) % o->eval_every == 0;
+        if (eval && o->evaluate && (periodic || step + 1 == o->steps)) {
             if ((rc = o->evaluate(&v, eval, o->frames, 1, o->eval_clips, &e))) break;
             ep = &e;
             gv_info("vae train: step %ld: held-out PSNR %.2f dB, SSIM %.4f (%d frames)", step + 1, e.psnr, e.ssim, e.n_frames);

@@ -58,6 +58,12 @@ err=$("$GV" vae train "${args[@]}" --steps 6 --resume --lr 1e-3 --out "$DIR/part
 [ $? -eq 1 ] && echo "$err" | grep -q "other training options"
 check_rc "resuming with other options fails ($err)" $?
 
+out=$("$GV" vae train "${args[@]}" --steps 2 --eval-scenes "$DIR/other" --eval-clips 1 --out "$DIR/ev.safetensors" \
+    --log "$DIR/ev.tsv" 2>&1)
+check_rc "train with held-out scenes and no --eval-every ($out)" $?
+[ -z "$(sed -n 2p "$DIR/ev.tsv" | cut -f5)" ] && tail -1 "$DIR/ev.tsv" | cut -f5 | grep -Eq '^[0-9]+\.[0-9]{3}$'
+check_rc "the held-out scenes are measured at the last step only" $?
+
 # ---- evaluation -----------------------------------------------------------------------------
 out=$("$GV" vae eval --weights "$DIR/vae.safetensors" --scenes "$DIR/other" "$DIR/room" --threads 1 2>&1)
 check_rc "eval exits 0 ($out)" $?
