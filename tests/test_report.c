@@ -363,6 +363,35 @@ static void test_bad_input(const char *before)
     CHECK_FAILS_WITH(gv_report_write_html(nowhere), "nowhere: no such folder");
 }
 
+/* When restoration changed every frame by the same (a closed gate kept the renders), the strips
+ * show the frames with the lowest and highest sparse PSNR: frame 3 (24.0 dB) and frame 2 (30.0). */
+static void test_unchanged_restoration(void)
+{
+    static char good[8192], text[8192];
+    snprintf(good, sizeof good, METRICS, dir, dir, dir, dir);
+    const char *from[3] = {"\"restored\": {\"psnr\": 27.5", "\"restored\": {\"psnr\": 28.5", "\"restored\": {\"psnr\": 24.75"};
+    const char *to[3] = {"\"restored\": {\"psnr\": 27.123456789012345", "\"restored\": {\"psnr\": 30.0",
+                         "\"restored\": {\"psnr\": 24.0"};
+    for (int k = 0; k < 3; k++) {
+        const char *at = strstr(good, from[k]);
+        REQUIRE(at != NULL);
+        snprintf(text, sizeof text, "%.*s%s%s", (int)(at - good), good, to[k], at + strlen(from[k]));
+        memcpy(good, text, sizeof good);
+    }
+    write_metrics(good);
+    REQUIRE(gv_report_write_html(dir) == 0);
+    char *html = read_report();
+    REQUIRE(html != NULL);
+    const char *run = strstr(html, "id=\"n6\"");
+    REQUIRE(run != NULL);
+    const char *worst = strstr(run, "<figure class=\"strip\" data-frame=\"3\">");
+    const char *best = strstr(run, "<figure class=\"strip\" data-frame=\"2\">");
+    CHECK(worst != NULL && best != NULL && worst < best);
+    CHECK(strstr(run, "<figure class=\"strip\" data-frame=\"1\">") == NULL);
+    CHECK(strstr(run, "Shown: restoration changed no frame&#39;s PSNR") != NULL); /* text_escaped: ' is &#39; */
+    free(html);
+}
+
 int main(void)
 {
     snprintf(dir, sizeof dir, "%s", check_tmp_dir());
@@ -390,6 +419,7 @@ int main(void)
     test_error_map(html);
     test_self_contained(html);
     test_bad_input(html);
+    test_unchanged_restoration();
     cJSON_Delete(root);
     free(html);
     return check_summary();
