@@ -21,7 +21,7 @@ build: setup
 	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release >/dev/null
 	@cmake --build $(BUILD) -j $(JOBS)
 
-# The main job, `gaussvid reconstruct`, on the default procedural room, into $(DEMO)/: see
+# The main job, `gaussvid reconstruct --adapt`, on the default procedural room, into $(DEMO)/: see
 # scripts/demo.sh (its GV_DEMO_* variables change the scene, n and iterations).
 run: build
 	@bash scripts/demo.sh $(BUILD)/gaussvid $(DEMO)
