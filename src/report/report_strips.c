@@ -5,8 +5,9 @@
  *
  * Which frames: with ground truth, the worst and the best by restored-minus-sparse PSNR (where
  * restoration hurt most and helped most); before restoration is evaluated, or when it changed
- * every frame by the same (a closed gate keeps the renders), the worst and best sparse PSNR; without ground truth, the frames the restorer changed most and least (mean
- * absolute difference); before anything is restored, the first and last frames. */
+ * no frame's PSNR (a closed gate keeps the renders), the worst and best sparse PSNR; without
+ * ground truth, the frames the restorer changed most and least (mean absolute difference);
+ * before anything is restored, the first and last frames. */
 #include "report_internal.h"
 
 #include "gaussvid/core.h"
@@ -45,10 +46,10 @@ int report_pick_frames(const char *dir, const report_run *run, int picked[2], co
 {
     int *worst = &picked[0], *best = &picked[1];
     *worst = *best = -1;
-    double low = DBL_MAX, high = -DBL_MAX;
     int unchanged = 0;
     /* 0: restored - sparse PSNR, 1: sparse PSNR, 2: restorer's change, 3: first and last */
     for (int pass = 0; pass < 3 && *worst < 0; pass++) {
+        double low = DBL_MAX, high = -DBL_MAX;
         for (int i = 0; i < run->n_frames; i++) {
             const report_frame *f = &run->frames[i];
             double v;
@@ -63,11 +64,10 @@ int report_pick_frames(const char *dir, const report_run *run, int picked[2], co
             if (v < low) low = v, *worst = i;
             if (v > high) high = v, *best = i;
         }
-        if (pass == 0 && *worst >= 0 && low == high) {
-            /* No frame is worse or better than another: show where the renders are worst and best. */
+        if (pass == 0 && *worst >= 0 && low == 0 && high == 0) {
+            /* Restoration changed no frame's PSNR: show where the renders are worst and best. */
             unchanged = 1;
             *worst = *best = -1;
-            low = DBL_MAX, high = -DBL_MAX;
             continue;
         }
         static const char *const rules[3] = {
