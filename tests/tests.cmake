@@ -46,8 +46,16 @@ gv_add_test_programs(itest_*.c integration)
 # The modules' order: no module includes a header of one above it (docs/LAYERS.md).
 gv_add_test(layers layout bash ${CMAKE_SOURCE_DIR}/tests/layers.sh ${CMAKE_SOURCE_DIR})
 
+# The browser test's helper: how much of a screenshot's rectangle is unlike a colour.
+add_executable(png_unlike ${CMAKE_SOURCE_DIR}/tests/report/png_unlike.c)
+target_link_libraries(png_unlike PRIVATE gaussvid_lib)
+
 file(GLOB GV_CLI_TESTS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/cli/*.sh)
 foreach(script ${GV_CLI_TESTS})
   get_filename_component(name ${script} NAME_WE)
-  gv_add_test(cli_${name} cli bash ${script} $<TARGET_FILE:gaussvid>)
+  set(helpers "")
+  if(name STREQUAL "report_browser")
+    set(helpers $<TARGET_FILE:png_unlike>)
+  endif()
+  gv_add_test(cli_${name} cli bash ${script} $<TARGET_FILE:gaussvid> ${helpers})
 endforeach()
