@@ -1,4 +1,4 @@
-/* The training loop shared by base pretraining and GaussVid fine-tuning (DESIGN 7): a step
+/* The training loop shared by base pretraining and GaussVid fine-tuning (docs/ARCHITECTURE.md 7): a step
  * takes `batch` clips (chosen by the curriculum, or shuffled), accumulates the gradients of the
  * objective over them, clips the gradient norm and takes one AdamW step. A step depends only on
  * its number, the data position and the weights and moments, all of which the checkpoints
