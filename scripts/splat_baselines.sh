@@ -15,7 +15,7 @@ out=${1:?usage: splat_baselines.sh OUT [splat train flags...]}
 shift
 root=$(cd "$(dirname "$0")/.." && pwd)
 gv=${GV:-$root/build/gaussvid}
-shared=${GV_SHARED_DATA:-$root/../shared/data}/scenes
+shared_scenes=${GV_SHARED_DATA:-$root/data}/scenes
 scenes_dir=${SCENES:-/work/scenes}
 mkdir -p "$out" "$scenes_dir"
 for k in 1 2 3; do
@@ -35,7 +35,7 @@ cell() { # scene-name scene-dir n
 flags=("$@")
 jobs=()
 for scene in courtyard livingroom synth-1 synth-2 synth-3; do
-  dir=$shared/$scene
+  dir=$shared_scenes/$scene
   [ -d "$dir" ] || dir=$scenes_dir/$scene
   for n in 6 12 26; do
     if [ -z "${CELLS:-}" ] || [[ " $CELLS " == *" $scene:$n "* ]]; then jobs+=("$scene $dir $n"); fi
