@@ -4,11 +4,13 @@
  * time embedding of those timesteps (the sinusoid, and the DiT's bf16 rounding of the
  * timestep and of the sinusoid), the VACE mask (0 on the first and last frame) and the
  * latent frames its nearest-exact resize picks for T = 5, 9, 13, 17, 21, 81, and the
- * truncating uint8 conversion. */
+ * truncating uint8 conversion; the release's SSIM (scikit-image's) against a window-by-window
+ * computation and a hand-derived case. */
 #include <stdint.h>
 
 #include "check.h"
 #include "model_testutil.h"
+#include "gaussvid/metrics.h"
 #include "gaussvid/restore.h"
 
 static uint32_t bits(float x)
@@ -152,8 +154,62 @@ static void test_to_u8(void)
     CHECK(gv_release_to_u8(-0.99f) == 1); /* bf16(-0.99) = -0.98828125: 0.01171875 127.5 = 1.494 -> bf16 1.4921875 */
 }
 
+/* skimage's SSIM, computed here window by window with two-pass sample (co)variances. */
+static double naive_ssim(const gv_image *a, const gv_image *b)
+{
+    const double c1 = 6.5025, c2 = 58.5225; /* (0.01 255)^2, (0.03 255)^2 */
+    double total = 0;
+    for (int c = 0; c < a->channels; c++) {
+        double sum = 0;
+        int count = 0;
+        for (int y = 3; y < a->height - 3; y++)
+            for (int x = 3; x < a->width - 3; x++, count++) {
+                double ma = 0, mb = 0, va = 0, vb = 0, cab = 0;
+                for (int pass = 0; pass < 2; pass++)
+                    for (int dy = -3; dy <= 3; dy++)
+                        for (int dx = -3; dx <= 3; dx++) {
+                            size_t i = ((size_t)(y + dy) * a->width + x + dx) * a->channels + c;
+                            double p = a->pixels[i], q = b->pixels[i];
+                            if (pass == 0) ma += p / 49, mb += q / 49;
+                            else va += (p - ma) * (p - ma) / 48, vb += (q - mb) * (q - mb) / 48, cab += (p - ma) * (q - mb) / 48;
+                        }
+                sum += (2 * ma * mb + c1) * (2 * cab + c2) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+            }
+        total += sum / count;
+    }
+    return total / a->channels;
+}
+
+static void test_ssim_skimage(void)
+{
+    enum { W = 20, H = 16 };
+    uint8_t pa[W * H * 3], pb[W * H * 3];
+    gv_image a = {W, H, 3, pa}, b = {W, H, 3, pb};
+    double s;
+    /* constant images p and q: no variance, S = (2pq + C1) / (p^2 + q^2 + C1) */
+    memset(pa, 100, sizeof pa), memset(pb, 110, sizeof pb);
+    REQUIRE(gv_image_ssim_skimage(&a, &b, &s) == 0);
+    CHECK_NEAR(s, (2.0 * 100 * 110 + 6.5025) / (100.0 * 100 + 110.0 * 110 + 6.5025), 1e-13);
+    REQUIRE(gv_image_ssim_skimage(&a, &a, &s) == 0);
+    CHECK(s == 1.0);
+    /* a random pair against the window-by-window computation */
+    uint64_t state = 12345;
+    for (int i = 0; i < W * H * 3; i++) {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        pa[i] = (uint8_t)(state >> 56);
+        pb[i] = (uint8_t)(pa[i] / 2 + (state >> 33) % 100);
+    }
+    REQUIRE(gv_image_ssim_skimage(&a, &b, &s) == 0);
+    double want = naive_ssim(&a, &b);
+    CHECK_NEAR(s, want, 1e-12);
+    CHECK(s > 0.05 && s < 0.95);
+    gv_image small = {6, 16, 3, pa};
+    CHECK_FAILS_WITH(gv_image_ssim_skimage(&small, &small, &s), "smaller than its 7x7 window");
+}
+
 int main(void)
 {
+    test_ssim_skimage();
     test_sigmas();
     test_sinusoid();
     test_dit_time();

@@ -84,6 +84,17 @@ check "the fused base restores differently" test "$(cat "$T"/restored-fused/*/*.
     "$(cat "$T"/restored-plain/*/*.png 2>/dev/null | md5sum)"
 check "restored frames written" test -n "$(ls "$T"/restored-fused/*/*.png 2>/dev/null)"
 
+# The release's metric: scikit-image's PSNR and SSIM; the identity pipeline reproduces the
+# baseline under it too.
+expect 0 "eval with the release's metric" -- "$G" eval --ckpt "$T/fused/base.safetensors" --clips "$D" \
+    --sampler released --compose decoded --metric release --quiet --threads 1 --json "$T/eval.json"
+has "release metric"
+check "the JSON names the metric" grep -qE '"metric":[[:space:]]*"release"' "$T/eval.json"
+expect 0 "identity under the release's metric" -- "$G" eval --ckpt "$T/fused/base.safetensors" --clips "$D" --identity \
+    --metric release --quiet --threads 1
+has "identity check passed"
+expect 2 "an unknown metric" -- "$G" eval --ckpt "$T/fused/base.safetensors" --clips "$D" --metric lpips
+
 # Bad checkpoints: exit 1, one line naming the key or the file, nothing written.
 bad_lora() {
     expect 1 "$1" -- "$G" model import --from "$REL" --config "$CFG" --lora "$L/$1.safetensors" --out "$T/o-$1" --no-text
