@@ -5,7 +5,8 @@
 # decoder entries that replace, one of another shape, unknown names): model import --lora
 # (the summary line, --list-keys with the three lists), model merge (bf16 and f32, with the
 # VAE), restore with the fused base (which restores differently from the plain base), and
-# bad checkpoints failing with one line naming the key or the file, writing nothing.
+# eval --metric release, the official camera encoder (model run --part camera), and bad
+# checkpoints failing with one line naming the key or the file, writing nothing.
 # Usage: bash gaussvid_release.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup gaussvid_release "$1"
@@ -94,6 +95,22 @@ expect 0 "identity under the release's metric" -- "$G" eval --ckpt "$T/fused/bas
     --metric release --quiet --threads 1
 has "identity check passed"
 expect 2 "an unknown metric" -- "$G" eval --ckpt "$T/fused/base.safetensors" --clips "$D" --metric lpips
+
+# The official camera encoder (not on the release's inference path), on the cameras and
+# weights test_camera_official writes.
+check "the camera files are written" "$(dirname "$G")/test_camera_official" --write-fixtures "$L"
+expect 0 "model run --part camera" -- "$G" model run --part camera --config "$CFG" --weights "$L/camera_weights.safetensors" \
+    --inputs "$L/camera_inputs.safetensors" --out "$T/camera_out.safetensors" --quiet
+expect 0 "st inspect of the camera outputs" -- "$G" st inspect "$T/camera_out.safetensors"
+has "[5, 32, 32, 6]"
+has "[1, 6, 8, 32, 32]"
+has "[1, 8, 32]"
+expect 1 "outputs are not camera inputs" -- "$G" model run --part camera --config "$CFG" \
+    --weights "$L/camera_weights.safetensors" --inputs "$T/camera_out.safetensors" --out "$T/x.safetensors"
+one_line "unknown input plucker"
+expect 1 "the wrong weights" -- "$G" model run --part camera --config "$CFG" --weights "$L/good.safetensors" \
+    --inputs "$L/camera_inputs.safetensors" --out "$T/x.safetensors"
+one_line "dxo_patch_embed.weight"
 
 # Bad checkpoints: exit 1, one line naming the key or the file, nothing written.
 bad_lora() {
