@@ -12,6 +12,7 @@
 #include "model_testutil.h"
 #include "gaussvid/metrics.h"
 #include "gaussvid/restore.h"
+#include "gaussvid/vae.h"
 
 static uint32_t bits(float x)
 {
@@ -207,8 +208,103 @@ static void test_ssim_skimage(void)
     CHECK_FAILS_WITH(gv_image_ssim_skimage(&small, &small, &s), "smaller than its 7x7 window");
 }
 
+/* ---- the tiled VAE ------------------------------------------------------------------------- */
+
+static void test_tile_origins(void)
+{
+    int o[8];
+    /* 560x1024 (latent 70x128): decode tiles 30x52 at strides 15x26, encode 240x416 px at 120x208 */
+    CHECK(gv_vae_tile_origins(70, 30, 15, o, 8) == 4 && o[0] == 0 && o[1] == 15 && o[2] == 30 && o[3] == 45);
+    CHECK(gv_vae_tile_origins(128, 52, 26, o, 8) == 4 && o[0] == 0 && o[1] == 26 && o[2] == 52 && o[3] == 78);
+    CHECK(gv_vae_tile_origins(560, 240, 120, o, 8) == 4 && o[0] == 0 && o[1] == 120 && o[2] == 240 && o[3] == 360);
+    CHECK(gv_vae_tile_origins(1024, 416, 208, o, 8) == 4 && o[3] == 624);
+    CHECK(gv_vae_tile_origins(18, 30, 15, o, 8) == 1 && o[0] == 0); /* a 144-pixel frame: one tile */
+}
+
+/* The blend written from the definition: weights min(row ramp, column ramp), ramps
+ * (k + 1) / border on inner sides; tiles decoded whole by gv_vae_decode (no tiling). */
+static void test_tiled_decode(void)
+{
+    gv_model_config c;
+    REQUIRE(gv_model_config_preset(&c, "tiny") == 0);
+    gv_vae v;
+    REQUIRE(gv_vae_init(&v, &c, 0, 3) == 0);
+    enum { Z = 4, TL = 2, LH = 6, LW = 6, S = 8, T = 5, HH = LH * S, WW = LW * S };
+    float *z = malloc(sizeof(float) * Z * TL * LH * LW), *whole = malloc(sizeof(float) * 3 * T * HH * WW);
+    float *tiled = malloc(sizeof(float) * 3 * T * HH * WW), *tile = malloc(sizeof(float) * 3 * T * 32 * 32);
+    float *crop = malloc(sizeof(float) * Z * TL * 4 * 4);
+    double *sum = calloc((size_t)3 * T * HH * WW, sizeof *sum), *wsum = calloc((size_t)HH * WW, sizeof *wsum);
+    uint64_t st = 5;
+    for (int k = 0; k < Z * TL * LH * LW; k++) {
+        st = st * 6364136223846793005ull + 1442695040888963407ull;
+        z[k] = (float)((double)(st >> 11) / 9007199254740992.0 * 2 - 1);
+    }
+    /* tiles 4x4 cells at strides 2x2 over 6x6: origins 0 and 2 on each axis, ramps of 16 px */
+    const gv_vae_tiling t = {4, 4, 2, 2, 0};
+    REQUIRE(gv_vae_decode_tiled(&v, &t, z, TL, LH, LW, 0, 1, tiled) == 0);
+    for (int oy = 0; oy <= 2; oy += 2)
+        for (int ox = 0; ox <= 2; ox += 2) {
+            for (int ct = 0; ct < Z * TL; ct++)
+                for (int y = 0; y < 4; y++)
+                    for (int x = 0; x < 4; x++) crop[(ct * 4 + y) * 4 + x] = z[(ct * LH + oy + y) * LW + ox + x];
+            REQUIRE(gv_vae_decode(&v, crop, TL, 4, 4, 0, 1, tile) == 0);
+            for (int y = 0; y < 32; y++)
+                for (int x = 0; x < 32; x++) {
+                    /* row ramp: up from the top unless the tile starts at 0, down to the bottom
+                     * unless it ends at the image's bottom (48 px) */
+                    double ry = 1, rx = 1;
+                    if (oy > 0 && y < 16) ry = fmin(ry, (y + 1) / 16.0);
+                    if (oy * 8 + 32 < HH && y >= 16) ry = fmin(ry, (32 - y) / 16.0);
+                    if (ox > 0 && x < 16) rx = fmin(rx, (x + 1) / 16.0);
+                    if (ox * 8 + 32 < WW && x >= 16) rx = fmin(rx, (32 - x) / 16.0);
+                    double m = fmin(ry, rx);
+                    int at = (oy * 8 + y) * WW + ox * 8 + x;
+                    wsum[at] += m;
+                    for (int ct = 0; ct < 3 * T; ct++) sum[ct * HH * WW + at] += m * tile[(ct * 32 + y) * 32 + x];
+                }
+        }
+    double worst = 0;
+    for (int ct = 0; ct < 3 * T; ct++)
+        for (int p = 0; p < HH * WW; p++) worst = fmax(worst, fabs(tiled[ct * HH * WW + p] - sum[ct * HH * WW + p] / wsum[p]));
+    CHECK(worst < 1e-5);
+    /* one tile over the whole latent: the whole decode, bit for bit; with bf16 sums, its bf16 rounding */
+    REQUIRE(gv_vae_decode(&v, z, TL, LH, LW, 0, 1, whole) == 0);
+    const gv_vae_tiling one = {6, 6, 3, 3, 0}, one_bf16 = {6, 6, 3, 3, 1};
+    REQUIRE(gv_vae_decode_tiled(&v, &one, z, TL, LH, LW, 0, 1, tiled) == 0);
+    int same = 1, rounded = 1, differs = 0;
+    for (int k = 0; k < 3 * T * HH * WW; k++) same &= bits(tiled[k]) == bits(whole[k]);
+    REQUIRE(gv_vae_decode_tiled(&v, &one_bf16, z, TL, LH, LW, 0, 1, tiled) == 0);
+    for (int k = 0; k < 3 * T * HH * WW; k++)
+        rounded &= bits(tiled[k]) == bits(gv_bf16_to_f32(gv_f32_to_bf16(whole[k]))), differs += tiled[k] != whole[k];
+    CHECK(same && rounded && differs > 0);
+    /* the VAE's tiling field routes gv_vae_decode through the tiles */
+    v.tiling = &t;
+    REQUIRE(gv_vae_decode(&v, z, TL, LH, LW, 0, 1, whole) == 0);
+    REQUIRE(gv_vae_decode_tiled(&v, &t, z, TL, LH, LW, 0, 1, tiled) == 0);
+    same = 1;
+    for (int k = 0; k < 3 * T * HH * WW; k++) same &= bits(tiled[k]) == bits(whole[k]);
+    CHECK(same);
+    /* encoding in tiles: one tile is the whole encode */
+    v.tiling = NULL;
+    float *lat_whole = malloc(sizeof(float) * Z * TL * LH * LW), *lat_tiled = malloc(sizeof(float) * Z * TL * LH * LW);
+    REQUIRE(gv_vae_encode(&v, whole, T, HH, WW, 0, 4, lat_whole) == 0);
+    REQUIRE(gv_vae_encode_tiled(&v, &one, whole, T, HH, WW, 0, 4, lat_tiled) == 0);
+    same = 1;
+    for (int k = 0; k < Z * TL * LH * LW; k++) same &= bits(lat_tiled[k]) == bits(lat_whole[k]);
+    CHECK(same);
+    REQUIRE(gv_vae_encode_tiled(&v, &t, whole, T, HH, WW, 0, 4, lat_tiled) == 0);
+    worst = 0;
+    for (int k = 0; k < Z * TL * LH * LW; k++) worst = fmax(worst, fabs(lat_tiled[k] - lat_whole[k]));
+    CHECK(worst > 0 && worst < 10); /* tiles see less context: close, not equal */
+    free(lat_whole), free(lat_tiled);
+    free(z), free(whole), free(tiled), free(tile), free(crop), free(sum), free(wsum);
+    gv_vae_free(&v);
+}
+
 int main(void)
 {
+    test_tile_origins();
+    test_tiled_decode();
     test_ssim_skimage();
     test_sigmas();
     test_sinusoid();
