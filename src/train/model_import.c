@@ -108,6 +108,7 @@ static int check_finite(const gv_st_file *f, const gv_st_tensor *t, float *buffe
             if (!isfinite(buffer[k]))
                 return gv_fail("%s: %s: value element %lld is %g", f->path, t->name, (long long)(lo + k), (double)buffer[k]);
     }
+    gv_st_tensor_drop_pages(t); /* read again when written: one tensor resident at a time */
     return 0;
 }
 
