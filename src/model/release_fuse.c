@@ -2,7 +2,7 @@
  * `gaussvid model merge`: a base file and its VAE rewritten tensor by tensor with the pairs
  * fused and the decoder entries replaced (include/gaussvid/release_lora.h). Every output
  * tensor is made when the writer reaches it (gv_st_add_produced), and the base's mapped pages
- * are dropped once read, so merging the 28 GB 14B base holds about one tensor in memory. */
+ * are dropped once read, so merging the 35 GB 14B base holds about one tensor in memory. */
 #include "gaussvid/release_lora.h"
 
 #include <math.h>
