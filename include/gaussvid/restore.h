@@ -12,7 +12,9 @@
  *             x += v(x, sigma_k) (sigma_{k+1} - sigma_k) down to sigma_steps = 0 (reference 5.3)
  *   identity  z = z-hat (the network is not run: the baseline through the same pipeline)
  * "released" is euler as the authors' inference runs it: strength 0.2, shift 5, 10 steps, so
- * t0 = 0.5556 (reference 1.2, 5.4). Time grids: sigma_k = shift(u (1 - k / steps)) with u the
+ * t0 = 0.5556 (reference 1.2, 5.4), on their float32 sigma table with the DiT's time embedding
+ * of bf16 timesteps, and (in restore and eval) their tiled VAE and truncating 8-bit output
+ * (docs/GAUSSVID_RELEASE.md). Time grids: sigma_k = shift(u (1 - k / steps)) with u the
  * unshifted start, shift(u) = t0. Every evaluation of onestep and iterate averages `samples`
  * noise draws. The noise of step k, draw j is N(0, 1) at Philox position (k samples + j) n of
  * the clip's stream gv_restore_clip_seed(seed, clip name), so results are reproducible.
