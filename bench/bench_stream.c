@@ -112,6 +112,65 @@ static int write_base(const gv_model_config *c, const char *path, int64_t *bytes
     return rc;
 }
 
+static float *random_floats(int64_t n, uint64_t seed, float lo, float hi);
+
+/* A random rank-r LoRA in the GaussVid release's naming (docs/GAUSSVID_RELEASE.md): PEFT
+ * pairs pipe.dit.blocks.i.M.lora_{A,B}.default.weight and pipe.vace.vace_blocks.j.M... for
+ * every q, k, v, o of both attentions and ffn.0, ffn.2, in BF16, values from one buffer. */
+static int write_lora(const gv_model_config *c, int rank, const char *path, int64_t *bytes)
+{
+    static const char *const modules[] = {"self_attn.q", "self_attn.k", "self_attn.v", "self_attn.o", "cross_attn.q",
+                                          "cross_attn.k", "cross_attn.v", "cross_attn.o", "ffn.0", "ffn.2"};
+    const int D = c->dit.dim, Fd = c->dit.ffn_dim, n_mod = c->dit.cross_attn ? 10 : 6;
+    const int64_t span = (int64_t)rank * (D > Fd ? D : Fd) + 4096;
+    float *values = random_floats(span, 23, -0.01f, 0.01f);
+    uint16_t *bf16 = malloc((size_t)span * sizeof *bf16);
+    char (*names)[128] = calloc((size_t)2 * n_mod * (c->dit.num_layers + c->dit.n_vace_layers) + 1, sizeof *names);
+    int rc = values && bf16 && names ? 0 : gv_fail("bench stream: out of memory");
+    for (int64_t k = 0; rc == 0 && k < span; k++) bf16[k] = gv_f32_to_bf16(values[k]);
+    gv_st_builder b;
+    gv_st_builder_init(&b);
+    *bytes = 0;
+    int n = 0;
+    for (int blk = 0; rc == 0 && blk < c->dit.num_layers + c->dit.n_vace_layers; blk++)
+        for (int m = 0; rc == 0 && m < n_mod; m++) {
+            int vace = blk >= c->dit.num_layers, i = vace ? blk - c->dit.num_layers : blk;
+            int mi = c->dit.cross_attn ? m : (m < 4 ? m : m + 4);
+            int64_t out = !strcmp(modules[mi], "ffn.0") ? Fd : D, in = !strcmp(modules[mi], "ffn.2") ? Fd : D;
+            for (int ab = 0; rc == 0 && ab < 2; ab++, n++) {
+                snprintf(names[n], sizeof names[n], "pipe.%s.%s.%d.%s.lora_%c.default.weight", vace ? "vace" : "dit",
+                         vace ? "vace_blocks" : "blocks", i, modules[mi], ab ? 'B' : 'A');
+                const int64_t shape[2] = {ab ? out : rank, ab ? rank : in};
+                rc = gv_st_add_raw(&b, names[n], GV_ST_BF16, shape, 2, bf16 + (n * 7919) % 4096);
+                *bytes += 2 * shape[0] * shape[1];
+            }
+        }
+    if (rc == 0) rc = gv_st_write(&b, path);
+    gv_st_builder_free(&b);
+    free(values), free(bf16), free(names);
+    return rc;
+}
+
+/* Runs this program with argv in a child; its CPU seconds, wall seconds and peak RSS (GB). */
+static int timed_child(char *const argv[], double *cpu, double *wall, double *peak_gb)
+{
+    fflush(stdout);
+    double t0 = gv_now();
+    pid_t pid = fork();
+    if (pid < 0) return gv_fail("bench stream: cannot fork");
+    if (pid == 0) {
+        execv("/proc/self/exe", argv);
+        _exit(127);
+    }
+    int status = 0;
+    struct rusage ru;
+    int rc = wait4(pid, &status, 0, &ru) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0 ? 0 : -1;
+    *cpu = (double)ru.ru_utime.tv_sec + ru.ru_utime.tv_usec / 1e6 + (double)ru.ru_stime.tv_sec + ru.ru_stime.tv_usec / 1e6;
+    *wall = gv_now() - t0;
+    *peak_gb = ru.ru_maxrss * 1024.0 / 1e9;
+    return rc ? gv_fail("bench stream: %s %s failed (status %d)", argv[1], argv[2], status) : 0;
+}
+
 static float *random_floats(int64_t n, uint64_t seed, float lo, float hi)
 {
     float *x = malloc((size_t)n * sizeof *x);
@@ -236,7 +295,7 @@ int gv_bench_stream_command(int argc, char **argv)
 {
     stream_job j = {"wan2.1-vace-1.3b", "forward", 5, 144, 256};
     const char *dir = NULL, *run = NULL;
-    int keep = 0;
+    int keep = 0, lora_rank = 0;
     const gv_flag flags[] = {
         {"dir", GV_FLAG_STRING, &dir, "DIR", "folder for the BF16 weight file (1.3B: 4.3 GB, 14B: 35 GB)", 0},
         {"preset", GV_FLAG_STRING, &j.preset, "P", "the network (default wan2.1-vace-1.3b)", 0},
@@ -245,6 +304,9 @@ int gv_bench_stream_command(int argc, char **argv)
         {"height", GV_FLAG_INT, &j.height, "N", "clip height (default 144)", 0},
         {"width", GV_FLAG_INT, &j.width, "N", "clip width (default 256)", 0},
         {"keep", GV_FLAG_BOOL, &keep, NULL, "keep the weight file (and reuse it when it is there)", 0},
+        {"lora-rank", GV_FLAG_INT, &lora_rank, "R",
+         "also write a random rank-R LoRA in the GaussVid release's naming, fuse it (model merge, timed) and run on the "
+         "fused file (docs/GAUSSVID_RELEASE.md)", 0},
         {"run", GV_FLAG_STRING, &run, "FILE", "(internal) the child: run the work on this weight file", 0},
     };
     const gv_command_spec spec = {"bench stream", NULL, "a Wan preset with BF16 weights streamed from the mapped file",
@@ -274,29 +336,35 @@ int gv_bench_stream_command(int argc, char **argv)
         if (write_base(&c, path, &bytes)) return gv_report_failure();
         printf("  wrote %s: %.2f GB of BF16 DiT + VACE in %.0f s\n", path, bytes / 1e9, gv_now() - t0);
     }
-    fflush(stdout);
-    double t0 = gv_now();
-    pid_t pid = fork();
-    if (pid < 0) return gv_report_failure();
-    if (pid == 0) {
-        char frames[16], height[16], width[16];
-        snprintf(frames, sizeof frames, "%d", j.frames), snprintf(height, sizeof height, "%d", j.height);
-        snprintf(width, sizeof width, "%d", j.width);
-        execl("/proc/self/exe", "gaussvid", "bench", "stream", "--run", path, "--preset", j.preset, "--work", j.work,
-              "--frames", frames, "--height", height, "--width", width, (char *)NULL);
-        _exit(127);
+    char lora[4200], fused[4200], *run_on = path;
+    double cpu, wall, peak;
+    int rc = 0, fused_written = 0;
+    if (lora_rank > 0) { /* the GaussVid checkpoint: written, then fused into a copy of the base */
+        int64_t bytes = 0;
+        snprintf(lora, sizeof lora, "%s.lora%d.safetensors", path, lora_rank);
+        snprintf(fused, sizeof fused, "%s.fused.safetensors", path);
+        double t0 = gv_now();
+        rc = write_lora(&c, lora_rank, lora, &bytes);
+        if (rc == 0) printf("  wrote %s: %.2f GB rank-%d LoRA in %.0f s\n", lora, bytes / 1e9, lora_rank, gv_now() - t0);
+        char *merge[] = {"gaussvid", "model", "merge", "--base", path, "--lora", lora, "--out", fused, "--quiet", NULL};
+        if (rc == 0) rc = timed_child(merge, &cpu, &wall, &peak), fused_written = rc == 0;
+        if (rc == 0)
+            printf("bench stream: model merge (rank %d, bf16): %.1f CPU-s, %.0f s wall, peak resident set %.2f GB\n",
+                   lora_rank, cpu, wall, peak);
+        run_on = fused;
     }
-    int status = 0;
-    struct rusage ru;
-    int rc = wait4(pid, &status, 0, &ru) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0 ? 0 : -1;
-    double cpu = (double)ru.ru_utime.tv_sec + ru.ru_utime.tv_usec / 1e6 + (double)ru.ru_stime.tv_sec + ru.ru_stime.tv_usec / 1e6;
+    char frames[16], height[16], width[16];
+    snprintf(frames, sizeof frames, "%d", j.frames), snprintf(height, sizeof height, "%d", j.height);
+    snprintf(width, sizeof width, "%d", j.width);
+    char *child[] = {"gaussvid", "bench", "stream", "--run", run_on, "--preset", (char *)j.preset, "--work", (char *)j.work,
+                     "--frames", frames, "--height", height, "--width", width, NULL};
+    if (rc == 0) rc = timed_child(child, &cpu, &wall, &peak);
     getloadavg(load, 1);
     if (rc == 0)
-        printf("bench stream: %s %s: %.1f CPU-s (user %.1f, system %.1f), %.0f s wall, peak resident set %.2f GB "
-               "(%.2f GiB); load average %.1f at the end\n", c.name, j.work, cpu,
-               ru.ru_utime.tv_sec + ru.ru_utime.tv_usec / 1e6, ru.ru_stime.tv_sec + ru.ru_stime.tv_usec / 1e6,
-               gv_now() - t0, ru.ru_maxrss * 1024.0 / 1e9, ru.ru_maxrss / 1048576.0, load[0]);
+        printf("bench stream: %s %s: %.1f CPU-s, %.0f s wall, peak resident set %.2f GB (%.2f GiB); load average %.1f at "
+               "the end\n", c.name, j.work, cpu, wall, peak, peak * 1e9 / 1073741824.0, load[0]);
     if (!keep && unlink(path) != 0) gv_warn("bench stream: could not remove %s", path);
-    if (rc) return gv_fail("bench stream: the run failed (status %d)", status), gv_report_failure();
-    return 0;
+    if (lora_rank > 0 && unlink(lora) != 0 && !keep) gv_warn("bench stream: could not remove %s", lora);
+    if (fused_written && unlink(fused) != 0) gv_warn("bench stream: could not remove %s", fused);
+    return rc ? gv_report_failure() : 0;
 }

@@ -12,7 +12,7 @@ io      : core        : image metrics gaussians ply colmap transforms safetensor
 scene   : io          : scene synth reproject scene_colmap
 splat   : scene       : splat splat_train render coverage
 nn      : core        : tensor ops optim nn
-model   : io nn       : model_config dit vae plucker weight_names umt5
+model   : io nn       : model_config dit vae plucker plucker_official weight_names umt5 release_lora
 data    : splat       : dataset internal_pairs
 train   : model data  : train condition checkpoint vae_train model_import scene_adapt
 restore : train       : restore adapt

@@ -213,9 +213,9 @@ static void test_compose(void)
         float *z = malloc((size_t)n * 4);
         for (int64_t i = 0; i < n; i++) z[i] = s.l.z_corrupt[i] + 0.3f * (float)sin(0.37 * (double)i);
         uint8_t *dec = malloc((size_t)(5 * fb)), *res = malloc((size_t)(5 * fb)), *ident = malloc((size_t)(5 * fb));
-        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_DECODED, dec) == 0);
-        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_RESIDUAL, res) == 0);
-        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, s.l.z_corrupt, GV_COMPOSE_RESIDUAL, ident) == 0);
+        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_DECODED, 0, dec) == 0);
+        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_RESIDUAL, 0, res) == 0);
+        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, s.l.z_corrupt, GV_COMPOSE_RESIDUAL, 0, ident) == 0);
         /* identity under residual composition: the input clip, exactly */
         CHECK(!memcmp(ident, s.clip.inputs, (size_t)(5 * fb)));
         /* anchors are the input's */
@@ -248,10 +248,10 @@ static void test_compose(void)
         CHECK(bad_dec == 0 && bad_res == 0 && changed > 100);
         /* unseen: residual's bytes where no anchor sees the pixel, the render's where one does */
         uint8_t *uns = malloc((size_t)(5 * fb));
-        CHECK_FAILS_WITH(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_UNSEEN, uns), "coverage plane");
+        CHECK_FAILS_WITH(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_UNSEEN, 0, uns), "coverage plane");
         s.clip.coverage = malloc((size_t)(3 * plane));
         for (int64_t i = 0; i < 3 * plane; i++) s.clip.coverage[i] = (uint8_t)((i * 7 + i / 5) % 4); /* 0..3: a quarter unseen */
-        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_UNSEEN, uns) == 0);
+        CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_UNSEEN, 0, uns) == 0);
         int bad_uns = 0, unseen_changed = 0;
         for (int f = 0; f < 5; f++)
             for (int64_t p = 0; p < plane; p++) {

@@ -127,6 +127,9 @@ typedef struct {
     gv_tensor *plucker;           /* NULL: no camera tokens */
     const gv_dit_camera_cache *camera_cache; /* replaces plucker when given */
     float context_scale;          /* VACE hint scale (official default 1) */
+    int bf16_time;                /* the release's time embedding: the timestep rounded to bf16
+                                     before the sinusoid, the sinusoid rounded to bf16 after it
+                                     (docs/GAUSSVID_RELEASE.md) */
     gv_dit_trace *trace;          /* NULL or filled */
     void (*progress)(void *ctx, int done, int total); /* NULL, or told after each VACE and main
                                      block (total = n_vace_layers + num_layers): long passes */

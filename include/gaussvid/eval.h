@@ -28,6 +28,8 @@ typedef struct {
     gv_eval_row mean;                   /* over every frame (n = 0) */
     int finished;
     const gv_lpips *lpips;              /* AlexNet-LPIPS weights (lpips.h), or NULL: no LPIPS */
+    int release_metric;                 /* the GaussVid release's PSNR and SSIM (scikit-image's:
+                                           gv_image_ssim_skimage) instead of the 3DGS evaluation's */
 } gv_eval_table;
 
 /* An empty table; lpips may be NULL (no LPIPS column). */

@@ -29,4 +29,13 @@ double gv_ssim_with_gradient(const float *a, const float *b, int width, int heig
  * value read as v / 255. Fails (naming the sizes) when they differ. */
 int gv_image_psnr_ssim(const gv_image *a, const gv_image *b, double *psnr, double *ssim);
 
+/* SSIM as the GaussVid release measures it (docs/GAUSSVID_RELEASE.md): scikit-image's
+ * structural_similarity(a, b, channel_axis=2, data_range=255) on 8-bit images: per channel,
+ * a 7x7 uniform window, sample (co)variances (x 49/48), C1 = (0.01 255)^2,
+ * C2 = (0.03 255)^2, the map's mean over the pixels at least 3 from every border, then the
+ * mean over channels; in double (src/io/ssim_skimage.c). Fails (naming the sizes) when the
+ * images differ or are smaller than 7x7. */
+#define GV_SSIM_SKIMAGE_WINDOW 7
+int gv_image_ssim_skimage(const gv_image *a, const gv_image *b, double *ssim);
+
 #endif

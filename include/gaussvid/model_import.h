@@ -22,6 +22,7 @@ typedef struct {
     char config[GV_RELEASE_PATH_MAX]; /* the release's config.json, or "" when absent */
     char t5[GV_RELEASE_PATH_MAX];     /* models_t5_umt5-xxl-enc-bf16.pth, or "" */
     char tokenizer[GV_RELEASE_PATH_MAX]; /* google/umt5-xxl/spiece.model, or "" */
+    char lora[GV_RELEASE_PATH_MAX];   /* the GaussVid checkpoint to fuse (release_lora.h), or "" */
 } gv_release_files;
 
 /* GaussVid's prompt (reference 1.2). */
@@ -39,6 +40,7 @@ typedef struct {
     int64_t vae_values;
     char vae_checksum[48];
     int text_tokens;          /* tokens of the prompt's context; 0 when none was computed */
+    char lora_summary[512];   /* gv_release_plan_summary of files->lora, or "" */
 } gv_import_summary;
 
 /* Checks the release config.json (when there is one) against cfg, the DiT + VACE and VAE
@@ -51,6 +53,9 @@ typedef struct {
  * a config with cross-attention, also out_dir/text_context.safetensors: the prompt's context
  * [text_len, text_dim], named in the base's metadata. The files appear together or not at
  * all. */
+/* With files->lora: the GaussVid checkpoint applied as the release applies it
+ * (release_lora.h): each fused DiT/VACE weight stored as BF16 with the release's rounding
+ * (the others as published), the decoder entries replacing VAE tensors (rounded to bf16). */
 int gv_model_import(const gv_release_files *files, const gv_model_config *cfg, const char *prompt,
                     const char *out_dir, gv_import_summary *summary);
 

@@ -12,7 +12,9 @@
  *             x += v(x, sigma_k) (sigma_{k+1} - sigma_k) down to sigma_steps = 0 (reference 5.3)
  *   identity  z = z-hat (the network is not run: the baseline through the same pipeline)
  * "released" is euler as the authors' inference runs it: strength 0.2, shift 5, 10 steps, so
- * t0 = 0.5556 (reference 1.2, 5.4). Time grids: sigma_k = shift(u (1 - k / steps)) with u the
+ * t0 = 0.5556 (reference 1.2, 5.4), on their float32 sigma table with the DiT's time embedding
+ * of bf16 timesteps, and (in restore and eval) their tiled VAE and truncating 8-bit output
+ * (docs/GAUSSVID_RELEASE.md). Time grids: sigma_k = shift(u (1 - k / steps)) with u the
  * unshifted start, shift(u) = t0. Every evaluation of onestep and iterate averages `samples`
  * noise draws. The noise of step k, draw j is N(0, 1) at Philox position (k samples + j) n of
  * the clip's stream gv_restore_clip_seed(seed, clip name), so results are reproducible.
@@ -48,6 +50,9 @@ typedef struct {
     int samples;     /* noise draws averaged per evaluation (onestep, iterate; euler: 1) */
     double blend;    /* fraction of each step's correction applied, in (0, 1] (euler: 1) */
     uint64_t seed;   /* base seed of the noise */
+    int release;     /* the release's grid: sigmas in float32 as torch computes them
+                        (gv_release_sigmas) and the DiT's time embedding of bf16 timesteps
+                        (gv_dit_inputs.bf16_time); set by "released" */
 } gv_sampler;
 
 /* The defaults (docs/RESTORATION.md says how they were chosen). */
@@ -62,6 +67,12 @@ const char *gv_sampler_kind_name(gv_sampler_kind kind);
  * shift >= 1, samples >= 1 and 1 for euler, blend in (0, 1] and 1 for euler); fails naming the
  * field. */
 int gv_sampler_check(const gv_sampler *s);
+/* The release's time grid (docs/GAUSSVID_RELEASE.md): sigma_k = shift(linspace(strength, 0,
+ * steps + 1)[k]) for k < steps, every operation in float32 as torch's CPU linspace and the
+ * DiffSynth scheduler do it (the first half from the start, the second from the end), and
+ * t_k = 1000 sigma_k in float32; timesteps_bf16 (may be NULL) gets bf16(t_k), what the DiT
+ * sees. steps <= GV_SAMPLER_MAX_STEPS. */
+void gv_release_sigmas(float strength, float shift, int steps, float *sigmas, float *timesteps_bf16);
 /* The times sigma_0..sigma_steps (steps + 1 values, the last 0). */
 int gv_sampler_sigmas(const gv_sampler *s, double *sigmas);
 /* A named sampler with fields overridden where given (t0 > 0, steps > 0, shift > 0,
@@ -88,6 +99,7 @@ typedef struct {
     gv_dit_camera_cache cache;
     int has_cache;
     int evaluations;                   /* network evaluations so far */
+    int bf16_time;                     /* the release's time embedding (gv_sampler.release) */
 } gv_restore_net;
 int gv_restore_net_init(gv_restore_net *r, gv_dit *m, const gv_clip_latents *l, int use_camera_cache);
 void gv_restore_net_free(gv_restore_net *r);
@@ -102,9 +114,14 @@ typedef enum { GV_COMPOSE_DECODED, GV_COMPOSE_RESIDUAL, GV_COMPOSE_UNSEEN } gv_c
 const char *gv_compose_name(gv_compose c);
 int gv_compose_from_name(const char *name, gv_compose *out);
 /* The restored clip: out [5, H, W, 3] 8-bit (the clip's layout). z_restored holds
- * gv_clip_latents_z_count(l) floats; l is the clip's conditioning (its z_corrupt). */
+ * gv_clip_latents_z_count(l) floats; l is the clip's conditioning (its z_corrupt). Pixels are
+ * (x + 1) 127.5 rounded half up, or with release set as the release converts them
+ * (gv_release_to_u8). */
 int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *l, const float *z_restored,
-                       gv_compose mode, uint8_t *out);
+                       gv_compose mode, int release, uint8_t *out);
+/* The release's pixel conversion: uint8(clip((x + 1) 127.5, 0, 255)) on a bf16 tensor, each
+ * operation rounded to bf16 and the conversion truncating (docs/GAUSSVID_RELEASE.md). */
+uint8_t gv_release_to_u8(float x);
 
 /* ---- whole runs (restore_run.c) ----------------------------------------------------------- */
 typedef struct {

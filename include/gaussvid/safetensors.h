@@ -96,6 +96,9 @@ int gv_st_read_raw(const gv_st_file *f, const char *name, gv_st_dtype dtype,
                    const int64_t *shape, int rank, void *dst);
 /* Converts any F32, F16, BF16 or F64 tensor into t->n_elements floats. */
 int gv_st_tensor_to_f32(const gv_st_file *f, const gv_st_tensor *t, float *dst);
+/* The pages of a mapped tensor's bytes leave the resident set (a read-only file mapping
+ * reads them back when touched again); nothing for a tensor not in a mapping. */
+void gv_st_tensor_drop_pages(const gv_st_tensor *t);
 /* Formats a shape as "[2, 3]" into out (size bytes) and returns out. */
 const char *gv_st_shape_str(char *out, size_t size, const int64_t *shape, int rank);
 
@@ -108,6 +111,10 @@ typedef struct {
     struct gv_st_entry *tensors;
     int n_metadata, cap_metadata;
     char **metadata_keys, **metadata_values;
+    /* Set when the raw data added lives in read-only file mappings (a release being
+     * re-packaged): each tensor's pages leave the resident set once written, so writing a
+     * file larger than memory keeps one tensor resident at a time. */
+    int drop_source_pages;
 } gv_st_builder;
 void gv_st_builder_init(gv_st_builder *b);
 void gv_st_builder_free(gv_st_builder *b);
@@ -117,6 +124,13 @@ int gv_st_add_f32(gv_st_builder *b, const char *name, gv_st_dtype dtype, const i
 /* Adds bytes already in the dtype's little-endian layout (U8, I32, I64, BOOL, F64, ...). */
 int gv_st_add_raw(gv_st_builder *b, const char *name, gv_st_dtype dtype, const int64_t *shape,
                   int rank, const void *data);
+/* Adds a tensor whose bytes are made when the file is written, one tensor at a time:
+ * produce(ctx, dst, n_bytes) fills dst with the tensor's n_bytes little-endian bytes and
+ * returns 0, or fails (gv_fail) and returns -1, which fails the write. So a file of tensors
+ * computed from others (a LoRA fused into a base) never holds more than one in memory. */
+typedef int (*gv_st_produce_fn)(void *ctx, void *dst, uint64_t n_bytes);
+int gv_st_add_produced(gv_st_builder *b, const char *name, gv_st_dtype dtype, const int64_t *shape,
+                       int rank, gv_st_produce_fn produce, void *ctx);
 /* Adds a "__metadata__" entry (both strings are copied). */
 int gv_st_add_metadata(gv_st_builder *b, const char *key, const char *value);
 /* Writes the file atomically (temporary name + rename) in the canonical layout: tensors by

@@ -61,7 +61,27 @@ typedef struct {
     gv_vae_conv quant, post_quant;     /* conv1 (2 z -> 2 z) and conv2 (z -> z), 1x1x1 */
     int has_stats;                     /* per-channel latent normalisation known */
     float mean[GV_VAE_MAX_Z_DIM], inv_std[GV_VAE_MAX_Z_DIM], std[GV_VAE_MAX_Z_DIM];
+    const struct gv_vae_tiling *tiling; /* NULL: whole frames; else gv_vae_encode and
+                                           gv_vae_decode work in tiles (gv_vae_*_tiled) */
 } gv_vae;
+
+/* Tiles as the GaussVid release's VAE works (docs/GAUSSVID_RELEASE.md), in latent cells:
+ * decoding cuts the latent into tile_h x tile_w tiles at origins 0, stride, 2 stride, ...
+ * (an origin is skipped when the tile before it already reaches the end; the last tiles are
+ * clipped), decodes each, and blends them with weights that ramp (k + 1) / border over
+ * border = (tile - stride) cells' worth of pixels on every side that is not an image
+ * border, the weight of a pixel the smaller of its row and column ramps; encoding does the
+ * same in pixels (tile and stride times the spatial factor) with ramps in latent cells.
+ * bf16_accumulate: the sums of tile x weight and of weights are rounded to bf16 after each
+ * tile, as the release's CPU accumulators are. */
+typedef struct gv_vae_tiling {
+    int tile_h, tile_w, stride_h, stride_w;
+    int bf16_accumulate;
+} gv_vae_tiling;
+/* The release's: tiles of 30 x 52 latent cells, strides 15 x 26, bf16 accumulators. */
+extern const gv_vae_tiling GV_VAE_TILING_RELEASE;
+/* The tile origins along one axis of `size` cells; returns their count (at most max). */
+int gv_vae_tile_origins(int size, int tile, int stride, int *origins, int max);
 
 /* ---- construction, files (model/vae_params.c) ------------------------------------------- */
 /* Allocates the VAE of c->vae with every tensor of the weight list, initialised as
@@ -131,6 +151,12 @@ int gv_vae_encode(gv_vae *v, const float *video, int frames, int height, int wid
  * one shot. */
 int gv_vae_decode(gv_vae *v, const float *latent, int latent_frames, int lh, int lw,
                   int normalized, int chunked, float *video);
+/* gv_vae_encode and gv_vae_decode in tiles (gv_vae_tiling), whatever v->tiling says; the
+ * tiles themselves are coded whole. */
+int gv_vae_encode_tiled(gv_vae *v, const gv_vae_tiling *t, const float *video, int frames, int height, int width,
+                        int normalize, int chunk_frames, float *latent);
+int gv_vae_decode_tiled(gv_vae *v, const gv_vae_tiling *t, const float *latent, int latent_frames, int lh, int lw,
+                        int normalized, int chunked, float *video);
 
 /* ---- residual decoding (model/vae.c; docs/VAE.md) -------------------------------------- */
 /* The restorer's frames as render + D(z_restored) - D(z_render), clamped to [-1, 1]: the

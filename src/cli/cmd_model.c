@@ -354,6 +354,7 @@ static const gv_subcommand model_commands[] = {
     {"inspect", cmd_model_inspect, "parameter counts per module; check weight files against a config"},
     {"run", cmd_model_run, "one forward pass of a network part on named input tensors"},
     {"import", cmd_model_import, "a published Wan2.1-VACE release folder as a base checkpoint and VAE"},
+    {"merge", cmd_model_merge, "the published GaussVid checkpoint fused into base weights"},
 };
 
 int cmd_model(int argc, char **argv)

@@ -11,6 +11,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/dit.h"
 #include "gaussvid/model_config.h"
+#include "gaussvid/plucker_official.h"
 #include "gaussvid/safetensors.h"
 #include "gaussvid/vae.h"
 
@@ -27,6 +28,7 @@ static const struct {
     {"dit", gv_dit_run_named},
     {"vae-encode", gv_vae_run_encode_named},
     {"vae-decode", gv_vae_run_decode_named},
+    {"camera", gv_camera_run_named},
 };
 static const int n_model_parts = (int)(sizeof model_parts / sizeof model_parts[0]);
 
@@ -84,7 +86,7 @@ int cmd_model_run(int argc, char **argv)
         {"weights", GV_FLAG_STRING, &weights, "FILE[,FILE]", "safetensors weight files (e.g. base,adapters)", 1},
         {"inputs", GV_FLAG_STRING, &inputs, "FILE", "safetensors file of named input tensors", 1},
         {"out", GV_FLAG_STRING, &out, "FILE", "safetensors file for the named outputs", 1},
-        {"part", GV_FLAG_STRING, &part, "P", "the part to run: dit (default), vae-encode, vae-decode", 0},
+        {"part", GV_FLAG_STRING, &part, "P", "the part to run: dit (default), vae-encode, vae-decode, camera", 0},
         {"variant", GV_FLAG_STRING, &variant, "V", GV_VARIANT_HELP, 0},
     };
     const gv_command_spec spec = {
@@ -97,7 +99,12 @@ int cmd_model_run(int argc, char **argv)
         "and the plucker field it built. Weights load by name (docs/MODEL.md).\n"
         "--part vae-encode reads video [B, 3, T, H, W] in [-1, 1] and writes mean (and latent,\n"
         "normalised, when the VAE has statistics); --part vae-decode reads latent (or mean)\n"
-        "[B, z, T', h, w] and writes video, clamped; the batch axis may be left out (docs/VAE.md).",
+        "[B, z, T', h, w] and writes video, clamped; the batch axis may be left out (docs/VAE.md).\n"
+        "--part camera runs the official GaussVid camera code with its parameter names: reads Ks\n"
+        "[F, 3, 3] + c2ws [F, 4, 4] (camera-to-world, OpenCV) + size [2] (height, width), or a\n"
+        "packed field [1, 6, Tp, H, W]; writes plucker [F, H, W, 6], packed [1, 6, F + 3, H, W]\n"
+        "and tokens [1, N, D]; the config gives D (dit.dim), hidden (camera.channels) and the\n"
+        "gates' bottleneck (camera.gate_hidden) (docs/GAUSSVID_RELEASE.md).",
         flags, (int)(sizeof flags / sizeof flags[0]), 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);

@@ -48,6 +48,8 @@ int gv_restore_cli_start(const gv_restore_cli *c, gv_restore_options *o, gv_rest
     char gate_line[1024];
     if (gv_restore_cli_gate(c->ckpt, c->compose != NULL, o, gate_line, sizeof gate_line, s)) return -1;
     fputs(gate_line, stdout);
+    /* the release's tiled VAE (docs/GAUSSVID_RELEASE.md); cached latents were encoded whole */
+    if (o->sampler.release) s->r.vae.tiling = &GV_VAE_TILING_RELEASE;
     if (c->lpips && gv_lpips_load(&s->lpips, c->lpips)) return -1;
     gv_eval_init(&s->table, c->lpips ? &s->lpips : NULL);
     o->each = gv_eval_add_restored, o->each_ctx = &s->table;

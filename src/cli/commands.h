@@ -20,6 +20,7 @@ int cmd_metrics(int argc, char **argv);
 int cmd_model(int argc, char **argv);
 int cmd_model_run(int argc, char **argv);
 int cmd_model_import(int argc, char **argv);
+int cmd_model_merge(int argc, char **argv);
 int cmd_scene(int argc, char **argv);
 int cmd_scene_info(int argc, char **argv);
 int cmd_scene_synth(int argc, char **argv);

@@ -32,6 +32,27 @@ static gv_eval_row *row_of(gv_eval_table *t, int n)
     return &t->rows[i];
 }
 
+/* scikit-image's peak_signal_noise_ratio(truth, image, data_range=255) on 8-bit values: the
+ * squared differences are integers, so the mean is exact before the logarithm. */
+static double psnr_u8(const gv_image *a, const gv_image *b)
+{
+    size_t n = (size_t)a->width * a->height * a->channels;
+    double sum = 0;
+    for (size_t i = 0; i < n; i++) {
+        double d = (double)a->pixels[i] - (double)b->pixels[i];
+        sum += d * d;
+    }
+    return sum == 0 ? INFINITY : 10.0 * log10(255.0 * 255.0 / (sum / (double)n));
+}
+
+/* PSNR and SSIM of one frame by the table's metric. */
+static int measure(const gv_eval_table *t, const gv_image *image, const gv_image *truth, double *psnr, double *ssim)
+{
+    if (!t->release_metric) return gv_image_psnr_ssim(image, truth, psnr, ssim);
+    *psnr = psnr_u8(image, truth);
+    return gv_image_ssim_skimage(truth, image, ssim);
+}
+
 int gv_eval_add(gv_eval_table *t, const gv_clip *clip, const uint8_t *restored)
 {
     if (t->finished) return gv_fail("eval: the table is already finished");
@@ -48,7 +69,7 @@ int gv_eval_add(gv_eval_table *t, const gv_clip *clip, const uint8_t *restored)
                               {info->width, info->height, 3, (uint8_t *)restored + off}};
         for (int k = 0; k < 2; k++) {
             double psnr, ssim, lpips = 0;
-            if (gv_image_psnr_ssim(&frames[k], &truth, &psnr, &ssim) ||
+            if (measure(t, &frames[k], &truth, &psnr, &ssim) ||
                 (t->lpips && gv_lpips_distance(t->lpips, &frames[k], &truth, &lpips)))
                 return gv_fail_context("eval: clip %s n%d frame %d", info->id.scene, info->id.n, info->frames[f]);
             sums[3 * k] += psnr, sums[3 * k + 1] += ssim, sums[3 * k + 2] += lpips;

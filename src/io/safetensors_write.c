@@ -10,6 +10,8 @@
 #include <inttypes.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include "gaussvid/core.h"
 #include "io/safetensors_internal.h"
@@ -25,6 +27,7 @@ struct gv_st_entry {
     uint64_t n_elements, n_bytes;
     const void *data;
     int from_f32;   /* data are floats, converted to dtype when written */
+    gv_st_produce_fn produce;  /* when set, the bytes are made at write time (data is its ctx) */
 };
 
 void gv_st_builder_init(gv_st_builder *b)
@@ -54,7 +57,8 @@ static int check_name(const char *what, const char *name)
 }
 
 static int add_entry(gv_st_builder *b, const char *name, gv_st_dtype dtype,
-                     const int64_t *shape, int rank, const void *data, int from_f32)
+                     const int64_t *shape, int rank, const void *data, int from_f32,
+                     gv_st_produce_fn produce)
 {
     if (check_name("tensor name", name)) return -1;
     if (!strcmp(name, "__metadata__"))
@@ -67,7 +71,7 @@ static int add_entry(gv_st_builder *b, const char *name, gv_st_dtype dtype,
                        GV_ST_MAX_RANK);
     if (rank > 0 && !shape) return gv_fail("safetensors: tensor '%s': no shape", name);
     struct gv_st_entry e = {.dtype = dtype, .rank = rank, .n_elements = 1, .data = data,
-                            .from_f32 = from_f32};
+                            .from_f32 = from_f32, .produce = produce};
     for (int k = 0; k < rank; k++) {
         if (shape[k] < 0)
             return gv_fail("safetensors: tensor '%s': negative dimension %" PRId64, name,
@@ -78,7 +82,7 @@ static int add_entry(gv_st_builder *b, const char *name, gv_st_dtype dtype,
     }
     if (__builtin_mul_overflow(e.n_elements, (uint64_t)gv_st_dtype_bits(dtype) / 8, &e.n_bytes))
         return gv_fail("safetensors: tensor '%s': byte size overflows", name);
-    if (!data && e.n_bytes) return gv_fail("safetensors: tensor '%s': no data", name);
+    if (!data && e.n_bytes && !produce) return gv_fail("safetensors: tensor '%s': no data", name);
     if (b->n_tensors == b->cap_tensors) {
         int cap = b->cap_tensors ? 2 * b->cap_tensors : 16;
         struct gv_st_entry *grown = realloc(b->tensors, (size_t)cap * sizeof *grown);
@@ -97,13 +101,20 @@ int gv_st_add_f32(gv_st_builder *b, const char *name, gv_st_dtype dtype, const i
     if (dtype != GV_ST_F32 && dtype != GV_ST_BF16 && dtype != GV_ST_F16)
         return gv_fail("safetensors: tensor '%s': float32 values are stored as F32, BF16 or "
                        "F16, not %s", name ? name : "", gv_st_dtype_name(dtype));
-    return add_entry(b, name, dtype, shape, rank, data, 1);
+    return add_entry(b, name, dtype, shape, rank, data, 1, NULL);
 }
 
 int gv_st_add_raw(gv_st_builder *b, const char *name, gv_st_dtype dtype, const int64_t *shape,
                   int rank, const void *data)
 {
-    return add_entry(b, name, dtype, shape, rank, data, 0);
+    return add_entry(b, name, dtype, shape, rank, data, 0, NULL);
+}
+
+int gv_st_add_produced(gv_st_builder *b, const char *name, gv_st_dtype dtype, const int64_t *shape,
+                       int rank, gv_st_produce_fn produce, void *ctx)
+{
+    if (!produce) return gv_fail("safetensors: tensor '%s': no producer", name ? name : "");
+    return add_entry(b, name, dtype, shape, rank, ctx, 0, produce);
 }
 
 int gv_st_add_metadata(gv_st_builder *b, const char *key, const char *value)
@@ -254,11 +265,44 @@ static int build_header(const gv_st_builder *b, struct gv_st_entry **order, cons
 
 /* ---- the file ------------------------------------------------------------------------ */
 
-static int write_tensor_data(FILE *out, const struct gv_st_entry *e, uint16_t *buffer)
+/* A produced tensor: made into a buffer of its size, written, freed. A producer's failure
+ * is already recorded (gv_fail); *produce_failed tells the caller not to overwrite it. */
+static int write_produced(FILE *out, const struct gv_st_entry *e, int *produce_failed)
+{
+    void *bytes = malloc((size_t)e->n_bytes);
+    if (!bytes) {
+        *produce_failed = 1;
+        return gv_fail("safetensors: tensor '%s': out of memory for %" PRIu64 " bytes", e->name, e->n_bytes);
+    }
+    int rc = e->produce((void *)e->data, bytes, e->n_bytes);
+    if (rc) *produce_failed = 1;
+    else rc = fwrite(bytes, 1, (size_t)e->n_bytes, out) == (size_t)e->n_bytes ? 0 : -1;
+    free(bytes);
+    return rc;
+}
+
+static void drop_pages(const void *p, uint64_t bytes)
+{
+    long page = sysconf(_SC_PAGESIZE);
+    uintptr_t lo = (uintptr_t)p & ~(uintptr_t)(page - 1), hi = (uintptr_t)p + bytes;
+    if (page > 0 && hi > lo) madvise((void *)lo, hi - lo, MADV_DONTNEED);
+}
+
+void gv_st_tensor_drop_pages(const gv_st_tensor *t)
+{
+    if (t && t->data && t->end > t->begin) drop_pages(t->data, t->end - t->begin);
+}
+
+static int write_tensor_data(FILE *out, const struct gv_st_entry *e, uint16_t *buffer, int drop,
+                             int *produce_failed)
 {
     if (e->n_bytes == 0) return 0;
-    if (!e->from_f32 || e->dtype == GV_ST_F32)
-        return fwrite(e->data, 1, (size_t)e->n_bytes, out) == (size_t)e->n_bytes ? 0 : -1;
+    if (e->produce) return write_produced(out, e, produce_failed);
+    if (!e->from_f32 || e->dtype == GV_ST_F32) {
+        int rc = fwrite(e->data, 1, (size_t)e->n_bytes, out) == (size_t)e->n_bytes ? 0 : -1;
+        if (drop && !e->from_f32) drop_pages(e->data, e->n_bytes);
+        return rc;
+    }
     const float *src = e->data;
     int half = e->dtype == GV_ST_F16;
     for (uint64_t lo = 0; lo < e->n_elements; lo += WRITE_CHUNK) {
@@ -288,15 +332,17 @@ static int write_file(const gv_st_builder *b, const char *path, struct gv_st_ent
     gv_atomic_file af;
     if (gv_atomic_open(&af, path)) return -1;
     errno = 0;
+    int produce_failed = 0;
     unsigned char length[8];
     for (int k = 0; k < 8; k++) length[k] = (unsigned char)((uint64_t)header->length >> (8 * k));
     int failed = fwrite(length, 1, 8, af.f) != 8 ||
                  fwrite(header->text, 1, header->length, af.f) != header->length;
     for (int i = 0; i < b->n_tensors && !failed; i++)
-        failed = write_tensor_data(af.f, order[i], buffer) != 0;
+        failed = write_tensor_data(af.f, order[i], buffer, b->drop_source_pages, &produce_failed) != 0;
     if (failed) {
         int e = errno;
         gv_atomic_abort(&af);
+        if (produce_failed) return -1; /* the producer said what is wrong */
         return gv_fail("%s: write error: %s", path, e ? strerror(e) : "short write");
     }
     return gv_atomic_commit(&af);

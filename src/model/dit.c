@@ -63,10 +63,17 @@ void gv_dit_camera_positions(int frames, int rows, int cols, int *pos)
     gv_dit_video_positions(frames, rows, cols, pos);
 }
 
-int gv_dit_time(gv_graph *g, const gv_dit *m, const float *t, int batch, gv_tensor **e, gv_tensor **e0)
+/* Timesteps rounded at once for the release's time embedding. */
+enum { TIME_MAX_BATCH = 64 };
+
+int gv_dit_time(gv_graph *g, const gv_dit *m, const float *t, int batch, int bf16_time, gv_tensor **e, gv_tensor **e0)
 {
     int D = m->cfg.dit.dim;
-    gv_tensor *s = gv_timestep_embedding(g, t, batch, m->cfg.dit.freq_dim);
+    float rounded[TIME_MAX_BATCH];
+    if (bf16_time && batch > TIME_MAX_BATCH) return gv_fail("dit: batch %d above %d", batch, TIME_MAX_BATCH);
+    for (int b = 0; bf16_time && b < batch; b++) rounded[b] = gv_bf16_to_f32(gv_f32_to_bf16(t[b]));
+    gv_tensor *s = gv_timestep_embedding(g, bf16_time ? rounded : t, batch, m->cfg.dit.freq_dim);
+    for (int64_t k = 0; bf16_time && s && k < s->numel; k++) s->data[k] = gv_bf16_to_f32(gv_f32_to_bf16(s->data[k]));
     *e = gv_dit_lin(g, m, &m->time2, gv_silu(g, gv_dit_lin(g, m, &m->time0, s)));
     *e0 = gv_reshape(g, gv_dit_lin(g, m, &m->time_proj, gv_silu(g, *e)), 3, (int[]){batch, 6, D});
     return *e0 ? 0 : -1;
@@ -215,7 +222,7 @@ gv_tensor *gv_dit_forward(gv_dit *m, gv_graph *g, const gv_dit_inputs *in)
     memset(tr, 0, sizeof *tr);
     gv_conv_geom geom = {{d->patch_size[0], d->patch_size[1], d->patch_size[2]}, {0, 0, 0, 0, 0, 0}};
     gv_tensor *x = gv_dit_tokens(g, gv_conv3d(g, in->latent, m->patch_w, m->patch_b, &geom)), *e, *e0;
-    if (gv_dit_time(g, m, in->timestep, B, &e, &e0) != 0) return NULL;
+    if (gv_dit_time(g, m, in->timestep, B, in->bf16_time, &e, &e0) != 0) return NULL;
     gv_tensor *ctx = in->text ? gv_dit_lin(g, m, &m->text2, gv_gelu(g, gv_dit_lin(g, m, &m->text0, in->text))) : NULL;
     const int cameras = in->plucker || in->camera_cache, stream = cameras && gv_model_has_camera_stream(&m->cfg);
     gv_tensor *rope = NULL, *rope_c = NULL, *xc = NULL;

@@ -124,7 +124,7 @@ gv_tensor *gv_dit_camera_e0(gv_graph *g, const gv_dit *m)
 {
     const float zero = 0.0f; /* docs/ARCHITECTURE.md 6.5: the camera stream is modulated as at t = 0 */
     gv_tensor *e, *e0;
-    return gv_dit_time(g, m, &zero, 1, &e, &e0) == 0 ? e0 : NULL;
+    return gv_dit_time(g, m, &zero, 1, 0, &e, &e0) == 0 ? e0 : NULL;
 }
 
 int gv_dit_camera_stream(gv_graph *g, const gv_dit *m, gv_tensor *xc, gv_tensor *rope, gv_tensor **x, gv_tensor **k,

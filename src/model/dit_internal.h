@@ -15,7 +15,9 @@ gv_tensor *gv_dit_mod_row(gv_graph *g, gv_tensor *mod, int i);
 
 /* The per-step conditioning: e = time_embedding(sinusoid(t)) [B, D] and
  * e0 = time_projection(e) as [B, 6, D] (reference 2.3). */
-int gv_dit_time(gv_graph *g, const gv_dit *m, const float *t, int batch, gv_tensor **e, gv_tensor **e0);
+/* The time embedding e and its projection e0 of B timesteps; bf16_time: as the release
+ * computes it (gv_dit_inputs.bf16_time). */
+int gv_dit_time(gv_graph *g, const gv_dit *m, const float *t, int batch, int bf16_time, gv_tensor **e, gv_tensor **e0);
 
 /* A block on the video tokens x [B, N, D] (or a VACE block on its context tokens): modulated
  * self-attention whose keys and values are extended by the camera stream's kc, vc when given

@@ -80,7 +80,7 @@ static void store_frames(const gv_tensor *y, float *dst, int T, int t0, float lo
         }
 }
 
-int gv_vae_encode(gv_vae *v, const float *video, int frames, int height, int width, int normalize,
+int gv_vae_encode_whole(gv_vae *v, const float *video, int frames, int height, int width, int normalize,
                   int chunk_frames, float *latent)
 {
     const gv_vae_config *c = &v->cfg;
@@ -117,8 +117,8 @@ int gv_vae_encode(gv_vae *v, const float *video, int frames, int height, int wid
     return rc;
 }
 
-int gv_vae_decode(gv_vae *v, const float *latent, int latent_frames, int lh, int lw, int normalized,
-                  int chunked, float *video)
+int gv_vae_decode_whole(gv_vae *v, const float *latent, int latent_frames, int lh, int lw, int normalized,
+                        int chunked, float *video)
 {
     const gv_vae_config *c = &v->cfg;
     int r = c->temporal_factor, s = c->spatial_factor, z = c->z_dim;
@@ -161,6 +161,20 @@ int gv_vae_decode(gv_vae *v, const float *latent, int latent_frames, int lh, int
 /* Residual decoding (docs/VAE.md): out = clamp(render + restored - rendered, -1, 1) over n
  * values. Where restored and rendered are equal the difference is exactly 0, so out is the
  * render (already in [-1, 1]): the VAE's reconstruction error cancels. */
+int gv_vae_encode(gv_vae *v, const float *video, int frames, int height, int width, int normalize,
+                  int chunk_frames, float *latent)
+{
+    if (v->tiling) return gv_vae_encode_tiled(v, v->tiling, video, frames, height, width, normalize, chunk_frames, latent);
+    return gv_vae_encode_whole(v, video, frames, height, width, normalize, chunk_frames, latent);
+}
+
+int gv_vae_decode(gv_vae *v, const float *latent, int latent_frames, int lh, int lw, int normalized,
+                  int chunked, float *video)
+{
+    if (v->tiling) return gv_vae_decode_tiled(v, v->tiling, latent, latent_frames, lh, lw, normalized, chunked, video);
+    return gv_vae_decode_whole(v, latent, latent_frames, lh, lw, normalized, chunked, video);
+}
+
 void gv_vae_compose_residual(const float *render, const float *restored, const float *rendered, int64_t n, float *out)
 {
     for (int64_t i = 0; i < n; i++) {

@@ -64,4 +64,10 @@ gv_tensor *gv_vae_layer_forward(gv_graph *g, const gv_vae_layer *l, gv_tensor *x
 gv_tensor *gv_vae_head_forward(gv_graph *g, const gv_vae_coder *c, gv_tensor *x,
                                gv_vae_stream *s);
 
+/* gv_vae_encode and gv_vae_decode on the whole frames, whatever v->tiling says (vae.c). */
+int gv_vae_encode_whole(gv_vae *v, const float *video, int frames, int height, int width, int normalize,
+                        int chunk_frames, float *latent);
+int gv_vae_decode_whole(gv_vae *v, const float *latent, int latent_frames, int lh, int lw, int normalized,
+                        int chunked, float *video);
+
 #endif

@@ -68,7 +68,7 @@ int gv_adapt_measure(gv_dit *m, gv_vae *vae, const char *dataset_dir, const gv_l
         rc = z && restored ? 0 : gv_fail("gate: out of memory");
         clip_stem(set->names[i], stem, sizeof stem);
         if (rc == 0) rc = gv_restore_latent(m, l, s, gv_restore_clip_seed(s->seed, stem), z);
-        if (rc == 0) rc = gv_restore_compose(vae, &clip, l, z, compose, restored);
+        if (rc == 0) rc = gv_restore_compose(vae, &clip, l, z, compose, s->release, restored);
         if (rc == 0) rc = measure_clip(&clip, restored, sums, &frames);
         if (rc) gv_fail_context("gate: %s", path);
         free(z), free(restored);

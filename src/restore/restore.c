@@ -62,6 +62,7 @@ int gv_restore_net_velocity(void *ctx, const float *x, double sigma, float *v)
     gv_dit_inputs in = gv_dit_inputs_default();
     in.latent = gv_tensor_from(g, 5, zs, x);
     in.timestep = timestep;
+    in.bf16_time = r->bf16_time;
     in.vace = d->n_vace_layers ? gv_tensor_from(g, 5, vs, l->vace) : NULL;
     if (d->cross_attn && !(in.text = gv_dit_text_input(r->model, g, l->batch))) return -1;
     if (r->has_cache) {
@@ -97,6 +98,7 @@ int gv_restore_latent(gv_dit *m, const gv_clip_latents *l, const gv_sampler *s, 
     }
     gv_restore_net net;
     int rc = gv_restore_net_init(&net, m, l, 1);
+    net.bf16_time = s->release;
     if (rc == 0) rc = gv_sample(s, gv_restore_net_velocity, &net, l->z_corrupt, gv_clip_latents_z_count(l), clip_seed, z_out);
     gv_restore_net_free(&net);
     return rc;

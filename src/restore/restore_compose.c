@@ -32,8 +32,21 @@ static uint8_t to_u8(float x)
     return (uint8_t)(int)(p + 0.5f);
 }
 
+static float bf16(float x)
+{
+    return gv_bf16_to_f32(gv_f32_to_bf16(x));
+}
+
+uint8_t gv_release_to_u8(float x)
+{
+    float p = bf16(bf16(bf16(x) + 1.0f) * 127.5f);
+    if (!(p > 0)) return 0; /* NaN too */
+    if (p >= 255) return 255;
+    return (uint8_t)p; /* truncation, as torch's .to(uint8) */
+}
+
 int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *l, const float *z_restored,
-                       gv_compose mode, uint8_t *out)
+                       gv_compose mode, int release, uint8_t *out)
 {
     const gv_clip_info *info = &clip->info;
     if (l->width != info->width || l->height != info->height)
@@ -72,7 +85,7 @@ int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *
             for (int c = 0; c < 3; c++) {
                 const float *src = video + ((int64_t)c * F + k) * plane;
                 for (int64_t p = 0; p < plane; p++)
-                    if (!seen || !seen[p]) dst[p * 3 + c] = to_u8(src[p]);
+                    if (!seen || !seen[p]) dst[p * 3 + c] = release ? gv_release_to_u8(src[p]) : to_u8(src[p]);
             }
         }
     }

@@ -71,7 +71,7 @@ static int restore_one(gv_restorer *r, const gv_clip *clip, const char *name, co
     uint8_t *frames = malloc((size_t)GV_CLIP_FRAMES * info->width * info->height * 3);
     int rc = z && frames ? 0 : gv_fail("restore: out of memory");
     if (rc == 0) rc = gv_restore_latent(&r->net, l, &o->sampler, gv_restore_clip_seed(o->sampler.seed, name), z);
-    if (rc == 0) rc = gv_restore_compose(&r->vae, clip, l, z, o->compose, frames);
+    if (rc == 0) rc = gv_restore_compose(&r->vae, clip, l, z, o->compose, o->sampler.release, frames);
     if (rc == 0 && o->out_dir) {
         char stem[512];
         clip_stem(name, stem, sizeof stem);

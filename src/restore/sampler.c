@@ -30,7 +30,7 @@ const char *gv_sampler_kind_name(gv_sampler_kind kind)
 
 int gv_sampler_from_name(const char *name, gv_sampler *out)
 {
-    gv_sampler s = {GV_SAMPLER_ONESTEP, 0.3, 1, 1.0, 1, 1.0, 0};
+    gv_sampler s = {GV_SAMPLER_ONESTEP, 0.3, 1, 1.0, 1, 1.0, 0, 0};
     if (!strcmp(name, "onestep")) {
         /* the measured best of the released checkpoint on an unseen validation scene
          * (docs/RESTORATION.md "Measured comparison"): a small t0, 8 draws averaged */
@@ -41,7 +41,7 @@ int gv_sampler_from_name(const char *name, gv_sampler *out)
         s.kind = GV_SAMPLER_EULER, s.steps = 10;
     } else if (!strcmp(name, "released")) {
         /* reference 1.2, 5.4: strength 0.2 shifted by 5 gives the first sigma 5/9 */
-        s.kind = GV_SAMPLER_EULER, s.steps = 10, s.shift = 5.0, s.t0 = gv_flow_shift(0.2, 5.0);
+        s.kind = GV_SAMPLER_EULER, s.steps = 10, s.shift = 5.0, s.t0 = gv_flow_shift(0.2, 5.0), s.release = 1;
     } else if (!strcmp(name, "identity")) {
         s.kind = GV_SAMPLER_IDENTITY;
     } else {
@@ -86,9 +86,31 @@ int gv_sampler_check(const gv_sampler *s)
     return 0;
 }
 
+void gv_release_sigmas(float strength, float shift, int steps, float *sigmas, float *timesteps_bf16)
+{
+    /* volatile: each product and sum rounded to float32 on its own, never fused */
+    const volatile float step = (0.0f - strength) / (float)steps;
+    const int n = steps + 1, halfway = n / 2;
+    for (int k = 0; k < steps; k++) {
+        volatile float prod = step * (float)(k < halfway ? k : n - k - 1);
+        volatile float s = k < halfway ? strength + prod : 0.0f - prod;
+        volatile float num = shift * s, scaled = (shift - 1.0f) * s, den = 1.0f + scaled;
+        sigmas[k] = num / den;
+        if (timesteps_bf16) timesteps_bf16[k] = gv_bf16_to_f32(gv_f32_to_bf16(1000.0f * sigmas[k]));
+    }
+}
+
 int gv_sampler_sigmas(const gv_sampler *s, double *sigmas)
 {
     if (gv_sampler_check(s)) return -1;
+    if (s->release) {
+        float grid[GV_SAMPLER_MAX_STEPS];
+        double u = s->t0 / (s->shift - (s->shift - 1.0) * s->t0); /* the strength */
+        gv_release_sigmas((float)u, (float)s->shift, s->steps, grid, NULL);
+        for (int k = 0; k < s->steps; k++) sigmas[k] = grid[k];
+        sigmas[s->steps] = 0.0;
+        return 0;
+    }
     /* the unshifted start u with shift(u) = t0, then the reference's grid (5.3) */
     double u = s->t0 / (s->shift - (s->shift - 1.0) * s->t0);
     for (int k = 0; k < s->steps; k++) sigmas[k] = gv_flow_shift(u * (1.0 - (double)k / s->steps), s->shift);

@@ -17,6 +17,7 @@
 #include "gaussvid/condition.h"
 #include "gaussvid/core.h"
 #include "gaussvid/model_import.h"
+#include "gaussvid/release_lora.h"
 #include "gaussvid/umt5.h"
 #include "gaussvid/vae.h"
 #include "gaussvid/weight_files.h"
@@ -107,6 +108,7 @@ static int check_finite(const gv_st_file *f, const gv_st_tensor *t, float *buffe
             if (!isfinite(buffer[k]))
                 return gv_fail("%s: %s: value element %lld is %g", f->path, t->name, (long long)(lo + k), (double)buffer[k]);
     }
+    gv_st_tensor_drop_pages(t); /* read again when written: one tensor resident at a time */
     return 0;
 }
 
@@ -117,7 +119,16 @@ static int dtype_slot(gv_st_dtype d)
 
 /* Checks the DiT file against the list and adds its tensors (in the list's order, raw bytes
  * from the mapping) to the builder. */
-static int add_dit(const gv_st_file *f, const gv_weight_list *l, gv_st_builder *b, gv_import_summary *s)
+/* The GaussVid checkpoint, when one is given: its file, the VAE's and the routing. */
+typedef struct {
+    gv_st_file lora, vae;
+    gv_release_plan plan;
+    gv_release_job *jobs;     /* one per weight of the list */
+    int active;
+} lora_import;
+
+static int add_dit(const gv_st_file *f, const gv_weight_list *l, gv_st_builder *b, gv_import_summary *s,
+                   lora_import *li)
 {
     gv_weight_report r;
     if (gv_weights_check(l, GV_PART_DIT | GV_PART_VACE, f, 1, &r)) return -1;
@@ -130,9 +141,15 @@ static int add_dit(const gv_st_file *f, const gv_weight_list *l, gv_st_builder *
         if (!(gv_module_part(w->module) & (GV_PART_DIT | GV_PART_VACE))) continue;
         const gv_st_tensor *t = gv_st_find(f, w->name);
         rc = check_finite(f, t, buffer);
-        if (rc == 0) rc = gv_st_add_raw(b, t->name, t->dtype, t->shape, t->rank, t->data);
-        s->dit_tensors++, s->dit_values += t->n_elements, s->dit_bytes += (int64_t)(t->end - t->begin);
-        s->dit_dtypes[dtype_slot(t->dtype)]++;
+        const gv_release_module *fused = li->active ? gv_release_plan_module(&li->plan, t->name) : NULL;
+        if (rc == 0 && fused) {
+            li->jobs[i] = (gv_release_job){f, t, &li->lora, fused, NULL, GV_FUSE_BF16};
+            rc = gv_release_add_job(b, &li->jobs[i]);
+        } else if (rc == 0) {
+            rc = gv_st_add_raw(b, t->name, t->dtype, t->shape, t->rank, t->data);
+        }
+        s->dit_tensors++, s->dit_values += t->n_elements, s->dit_bytes += fused ? 2 * t->n_elements : (int64_t)(t->end - t->begin);
+        s->dit_dtypes[dtype_slot(fused ? GV_ST_BF16 : t->dtype)]++;
     }
     free(buffer);
     return rc;
@@ -164,12 +181,36 @@ static int add_metadata(gv_st_builder *b, const gv_model_config *cfg, const char
 
 /* ---- the import --------------------------------------------------------------------------- */
 
-/* The VAE: loaded (names, shapes, values checked), its checksum, written to `path`. */
-static int import_vae(const char *from, const gv_model_config *cfg, const char *path, gv_import_summary *s)
+/* The checkpoint's decoder entries into the loaded VAE, rounded to bf16 as the release's
+ * bf16 VAE holds them. */
+static int replace_decoder(gv_vae *vae, const lora_import *li)
+{
+    for (int k = 0; k < li->plan.n_keys; k++) {
+        const gv_release_key *e = &li->plan.keys[k];
+        if (e->fate != GV_RKEY_DECODER_REPLACED) continue;
+        gv_param *p = gv_params_find(&vae->params, e->target);
+        const gv_st_tensor *t = &li->lora.tensors[k];
+        if (!p || p->t.numel != t->n_elements || !p->t.data)
+            return gv_fail("%s: %s: the VAE has no tensor %s of its size", li->lora.path, e->key, e->target);
+        if (gv_st_tensor_to_f32(&li->lora, t, p->t.data)) return -1;
+        for (int64_t i = 0; i < t->n_elements; i++) {
+            if (!isfinite(p->t.data[i]))
+                return gv_fail("%s: %s: value element %lld is %g", li->lora.path, e->key, (long long)i, (double)p->t.data[i]);
+            p->t.data[i] = gv_bf16_to_f32(gv_f32_to_bf16(p->t.data[i]));
+        }
+    }
+    return 0;
+}
+
+/* The VAE: loaded (names, shapes, values checked), the checkpoint's decoder entries applied,
+ * its checksum, written to `path`. */
+static int import_vae(const char *from, const gv_model_config *cfg, const char *path, gv_import_summary *s,
+                      const lora_import *li)
 {
     gv_vae vae;
     if (gv_vae_init(&vae, cfg, 0, 0)) return -1;
     int rc = gv_vae_load(&vae, from, 0);
+    if (rc == 0 && li->active) rc = replace_decoder(&vae, li);
     if (rc == 0) {
         gv_checkpoint_vae_checksum(&vae, s->vae_checksum, sizeof s->vae_checksum);
         s->vae_tensors = vae.params.n;
@@ -179,6 +220,30 @@ static int import_vae(const char *from, const gv_model_config *cfg, const char *
     }
     gv_vae_free(&vae);
     return rc;
+}
+
+/* Opens the checkpoint and the VAE and routes the keys against the DiT file. */
+static int lora_open(lora_import *li, const gv_release_files *files, const gv_st_file *dit, const gv_weight_list *l,
+                     gv_import_summary *s)
+{
+    memset(li, 0, sizeof *li);
+    if (!files->lora[0]) return 0;
+    if (gv_st_open(&li->lora, files->lora) || gv_weights_open(&li->vae, files->vae) ||
+        gv_release_plan_build(&li->plan, &li->lora, dit, &li->vae))
+        return -1;
+    li->jobs = calloc((size_t)l->n + 1, sizeof *li->jobs);
+    if (!li->jobs) return gv_fail("%s: out of memory", files->lora);
+    gv_release_plan_summary(&li->plan, s->lora_summary, sizeof s->lora_summary);
+    li->active = 1;
+    return 0;
+}
+
+static void lora_close(lora_import *li)
+{
+    free(li->jobs);
+    gv_release_plan_free(&li->plan);
+    gv_st_close(&li->vae);
+    gv_st_close(&li->lora);
 }
 
 int gv_model_import(const gv_release_files *files, const gv_model_config *cfg, const char *prompt, const char *out_dir,
@@ -204,7 +269,10 @@ int gv_model_import(const gv_release_files *files, const gv_model_config *cfg, c
         base_path[GV_RELEASE_PATH_MAX], text_tmp[GV_RELEASE_PATH_MAX], text_path[GV_RELEASE_PATH_MAX], name[64];
     gv_st_builder b;
     gv_st_builder_init(&b);
-    int rc = add_dit(&dit, &list, &b, summary);
+    b.drop_source_pages = 1; /* a 14B release is written with one tensor resident at a time */
+    lora_import li;
+    int rc = lora_open(&li, files, &dit, &list, summary);
+    if (rc == 0) rc = add_dit(&dit, &list, &b, summary, &li);
     if (rc == 0) rc = gv_mkdirs(out_dir);
     /* both files under temporary names first, renamed together at the end */
     snprintf(name, sizeof name, ".vae.safetensors.import.%ld", (long)getpid());
@@ -217,13 +285,14 @@ int gv_model_import(const gv_release_files *files, const gv_model_config *cfg, c
     if (rc == 0) rc = gv_path_join(text_tmp, sizeof text_tmp, out_dir, name);
     if (rc == 0) rc = gv_path_join(text_path, sizeof text_path, out_dir, "text_context.safetensors");
     int wrote_vae = 0, wrote_base = 0, wrote_text = 0;
-    if (rc == 0) rc = import_vae(files->vae, &base, vae_tmp, summary), wrote_vae = rc == 0;
+    if (rc == 0) rc = import_vae(files->vae, &base, vae_tmp, summary, &li), wrote_vae = rc == 0;
     if (rc == 0 && text)
         rc = gv_text_context_write(files->t5, files->tokenizer, &base, prompt, text_tmp, &summary->text_tokens),
         wrote_text = rc == 0;
     if (rc == 0)
         rc = add_metadata(&b, &base, vae_path, summary->vae_checksum, files->dit, text ? text_path : "", text ? prompt : "",
                           text ? files->t5 : "", text ? files->tokenizer : "");
+    if (rc == 0 && li.active) rc = gv_st_add_metadata(&b, "merged_lora", files->lora);
     if (rc == 0) rc = gv_st_write(&b, base_tmp), wrote_base = rc == 0;
     if (rc == 0 && (rename(vae_tmp, vae_path) != 0 || (text && rename(text_tmp, text_path) != 0) ||
                     rename(base_tmp, base_path) != 0))
@@ -234,6 +303,7 @@ int gv_model_import(const gv_release_files *files, const gv_model_config *cfg, c
         if (wrote_base) unlink(base_tmp);
     }
     gv_st_builder_free(&b);
+    lora_close(&li);
     gv_st_close(&dit); /* after the write: the builder points into its mapping */
     gv_weight_list_free(&list);
     return rc;

@@ -3,7 +3,8 @@
 # on the tiny preset with BF16 weights written to a scratch folder and streamed from it: the
 # weights are kept in BF16, every block of the forward pass reports, the child's CPU time and
 # peak resident set are printed, and the weight file is removed unless --keep (the Wan runs
-# and their numbers are in docs/BENCHMARKS.md).
+# and their numbers are in docs/BENCHMARKS.md); with --lora-rank, a random LoRA in the GaussVid
+# release's naming fused by model merge first.
 # Usage: bash bench_stream.sh /path/to/gaussvid
 set -u
 source "$(dirname "$0")/lib/harness.sh"
@@ -33,5 +34,14 @@ expect 0 "train, reusing the file" -- "$G" bench stream "${small[@]}" --work tra
 has "BF16 base frozen"
 has "AdamW step"
 check "no file written again" bash -c "! grep -q 'wrote ' '$T/out'"
+
+# With a random rank-4 LoRA in the GaussVid release's naming: written, fused by model merge
+# (timed), the work run on the fused file, every file removed.
+expect 0 "forward with a fused LoRA" -- "$G" bench stream "${small[@]}" --work forward --lora-rank 4
+has "rank-4 LoRA"
+has "bench stream: model merge (rank 4, bf16):"
+has "tiny: 49 linear weights kept in BF16"
+has "bench stream: tiny forward:"
+check "the weight files are removed" bash -c "! ls '$T/w'/*lora* '$T/w'/*fused* 2>/dev/null"
 
 cli_finish
