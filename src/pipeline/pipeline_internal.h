@@ -62,6 +62,12 @@ int pipeline_adapt(pipeline_run *r);
 int pipeline_restore(pipeline_run *r);
 /* evaluate.c */
 int pipeline_evaluate(pipeline_run *r);
+/* consistency.c: the 3D consistency of the run's sparse renders, restored frames and refined
+ * renders (gv_consistency_measure in path order): an object {"sparse": {"psnr", "coverage",
+ * "pairs", "scored", "depth"[, "per_pair"]}, "restored", "refined"} and the three mean PSNRs. */
+int pipeline_consistency(const pipeline_run *r, int with_pairs, cJSON **out, double psnr[3]);
+/* Its one-line summary. */
+void pipeline_consistency_line(const pipeline_run *r, const double psnr[3], char *out, size_t size);
 /* video.c */
 int pipeline_video(pipeline_run *r);
 /* The ffmpeg program to use: o->ffmpeg, else "ffmpeg" found on the PATH; fails with one line

@@ -204,6 +204,42 @@ refined() { python3 -c "import json; print(json.load(open('$1'))['runs'][0]['mea
 check "ground truth fed back beats the renders fed back by 1 dB" \
     python3 -c "import sys; sys.exit(not $(refined O/metrics.json) > $(refined I/metrics.json) + 1)"
 
+# 3D consistency: metrics.json's means are `metrics consistency`'s; restored frames that are the
+# renders themselves are exactly as consistent as the renders; bad folders give one line.
+expect 0 "consistency" -- "$G" metrics consistency R --json --threads 2
+cp "$T/out" consistency.json
+check "one summary line per run on stderr" test "$(grep -c '^n=6 consistency' "$T/err")" -eq 1
+check "consistency: metrics.json's means, pairs per frame" python3 -c "
+import json, math
+c = json.load(open('consistency.json'))['runs'][0]; r = json.load(open('R/metrics.json'))['runs'][0]
+assert c['interval'] == 6 and c['frames'] == 20
+for k in ('sparse', 'restored', 'refined'):
+    s = c[k]
+    assert s['pairs'] == 38 and len(s['per_pair']) == 38 and 0 < s['scored'] <= 38, k
+    assert abs(s['psnr'] - r['consistency'][k]['psnr']) < 1e-9, (k, s['psnr'], r['consistency'][k])
+    scored = [p['psnr'] for p in s['per_pair'] if p['psnr'] is not None]
+    assert len(scored) == s['scored'] and abs(sum(scored) / len(scored) - s['psnr']) < 1e-9, k
+    assert all(0 < p['psnr'] <= 100 and 0 < p['coverage'] <= 1 for p in s['per_pair'] if p['psnr'] is not None), k
+first = c['sparse']['per_pair'][:2]
+assert [(p['from'], p['to']) for p in first] == [(1, 2), (2, 1)], first
+assert c['sparse']['depth'] == c['restored']['depth'] == 'sparse.ply' and c['refined']['depth'] == 'refined.ply'"
+expect 0 "consistency of renders as restored" -- "$G" metrics consistency I --threads 2
+has "n=6 consistency"
+check "restored = renders: the same consistency" python3 -c "
+import json; c = json.load(open('I/metrics.json'))['runs'][0]['consistency']
+assert c['restored']['psnr'] == c['sparse']['psnr'], c"
+expect 1 "consistency: not a reconstruct folder" -- "$G" metrics consistency S
+one_line "no metrics.json"
+cp -r I I2
+rm I2/n6/frames/refined/frame_00009.png
+expect 1 "consistency: a missing frame" -- "$G" metrics consistency I2
+one_line "frame_00009.png"
+python3 -c "
+import json; d = json.load(open('I/metrics.json')); d['runs'][0]['frames'].pop()
+json.dump(d, open('I2/metrics.json', 'w'))"
+expect 1 "consistency: frames that are not the plan's" -- "$G" metrics consistency I2
+one_line "lists 19 frames but the scene's plan has 20"
+
 # n = 1 on 6 frames: every view trains; 5 clips restore a path of 15 frames without ground truth.
 expect 0 "synth 6" -- "$G" scene synth --seed 4 --frames 6 --size 64x48 --samples 1 --out P --quiet
 expect 0 "smooth path" -- "$G" reconstruct "${RC[@]}" --scene P --interval 1 --out PR --stop-after $LAST
