@@ -11,12 +11,16 @@
 #include "gaussvid/pipeline.h"
 #include "gaussvid/scene.h"
 
+#define PIPELINE_NAME_MAX 160
+
 /* One evaluated frame: a held-out view of the scene or a camera of the smooth path. */
 typedef struct {
     int index;                   /* scene frame (held-out) or path frame 4k + j (smooth path) */
     gv_camera camera;
     int truth;                   /* scene frame with ground truth, or -1 */
     int clip, slot;              /* the clip that restores it and its place there (1..3) */
+    char name[PIPELINE_NAME_MAX];/* its files' name without .png: the photo's (held-out) or
+                                    "<photo a>_to_<photo b>_<j>of4" (path), unique in the run */
 } pipeline_frame;
 
 typedef struct {
@@ -44,7 +48,8 @@ int pipeline_check_interval(const gv_scene *scene, int n);
 /* The training views, the evaluated frames and the clips of interval n. */
 int pipeline_plan(pipeline_run *r, const gv_scene *scene, int n);
 void pipeline_plan_free(pipeline_run *r);
-/* DIR/nN/<what>/frame_%05d.png of an evaluated frame (what: render, restored, refined). */
+/* DIR/nN/frames/<what>/<name>.png of the evaluated frame numbered `frame` (what: render,
+ * restored, refined). */
 int pipeline_frame_path(const pipeline_run *r, const char *what, int frame, char *out, size_t size);
 /* The same path relative to DIR (metrics.json's "images"). */
 void pipeline_frame_relpath(const pipeline_run *r, const char *what, int frame, char *out, size_t size);

@@ -130,6 +130,9 @@ run = doc["runs"][0]
 assert run["interval"] == 6 and run["path"] == "held-out" and run["train_frames"] == [0, 6, 12, 18, 24], "plan"
 frames = [f["frame"] for f in run["frames"]]
 assert frames == [i for i in range(1, 24) if i % 6], "frames %s" % frames
+# named after the photos: the scene's image names (frame_%05d.png for a synthesised scene)
+assert all(f["name"] == "frame_%05d.png" % f["frame"] and f["images"]["render"] == "n6/frames/render/frame_%05d.png" % f["frame"]
+           for f in run["frames"]), "names"
 assert run["gaussians"]["sparse"] > 0 and run["gaussians"]["refined"] == run["gaussians"]["sparse"], "counts"
 sums = {"sparse": [0, 0], "restored": [0, 0], "refined": [0, 0]}
 for f in run["frames"]:
@@ -245,12 +248,14 @@ expect 0 "synth 6" -- "$G" scene synth --seed 4 --frames 6 --size 64x48 --sample
 expect 0 "smooth path" -- "$G" reconstruct "${RC[@]}" --scene P --interval 1 --out PR --stop-after $LAST
 check "P was not in the restorer's training set: no warning" test "$(grep -c "was in the restorer's training set" "$T/err")" -eq 0
 check "15 path frames restored" test "$(ls PR/n1/frames/restored | wc -l)" -eq 15
-exists PR/n1/frames/refined/frame_00019.png
+exists PR/n1/frames/refined/frame_00004_to_frame_00005_3of4.png  # path frame 19, named after the photos around it
 check "path metrics" python3 -c "
 import json; r = json.load(open('PR/metrics.json'))['runs'][0]
 assert r['path'] == 'smooth' and r['means'] is None and r['all_held_out'] is None
 assert [f['frame'] for f in r['frames']] == [4 * k + j for k in range(5) for j in (1, 2, 3)]
-assert all(f['images']['ground_truth'] is None and f['sparse'] is None for f in r['frames'])"
+assert all(f['images']['ground_truth'] is None and f['sparse'] is None for f in r['frames'])
+assert r['frames'][0]['name'] == 'frame_00000_to_frame_00001_1of4', r['frames'][0]
+assert r['frames'][0]['images']['restored'] == 'n1/frames/restored/frame_00000_to_frame_00001_1of4.png'"
 if [ $HAVE_FFMPEG = 1 ]; then
     check "the path video is render | restored" test "$(ffprobe -v error -select_streams v:0 \
         -show_entries stream=width,height -of csv=p=0 PR/n1/flythrough.mp4)" = "128,48"
