@@ -9,6 +9,7 @@
 #include "gaussvid/dataset.h"
 #include "gaussvid/gaussians.h"
 #include "gaussvid/pipeline.h"
+#include "gaussvid/render.h"
 #include "gaussvid/scene.h"
 
 #define PIPELINE_NAME_MAX 160
@@ -75,6 +76,20 @@ int pipeline_consistency(const pipeline_run *r, int with_pairs, cJSON **out, dou
 void pipeline_consistency_line(const pipeline_run *r, const double psnr[3], char *out, size_t size);
 /* video.c */
 int pipeline_video(pipeline_run *r);
+/* video_frames.c: the video's frames, a fly-through along the training cameras and then the
+ * evaluated frames, each W x H RGB (panels of the frames' size side by side, padded to even). */
+typedef struct {
+    pipeline_run *r;
+    int w, h, W, H, panels, scale;
+    int steps;                   /* fly-through frames per gap between training views */
+    int n_flight, n_total;       /* fly-through frames; all frames */
+    gv_gaussians models[2];      /* sparse, refined */
+    gv_splat_renderer renderer;
+} pipeline_video_frames;
+int pipeline_video_open(pipeline_video_frames *v, pipeline_run *r);
+/* Frame i (0 .. n_total - 1) into out (W x H x 3 bytes). */
+int pipeline_video_frame(pipeline_video_frames *v, int i, uint8_t *out);
+void pipeline_video_close(pipeline_video_frames *v);
 /* The ffmpeg program to use: o->ffmpeg, else "ffmpeg" found on the PATH; fails with one line
  * saying how to install it. */
 int pipeline_find_ffmpeg(const gv_reconstruct_options *o, char *out, size_t size);

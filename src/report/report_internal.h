@@ -25,6 +25,7 @@ typedef struct {
 typedef struct {
     int frame;
     char *images[N_IMAGES];     /* as written: relative to DIR, ground truth absolute; NULL when null */
+    char *name;                 /* the photo's name ("name"), else the render's file name */
     report_score score[N_MODELS];
 } report_frame;
 
@@ -101,6 +102,16 @@ void report_plot(report_text *t, const report_run *run);
  * two strips' labels. */
 int report_pick_frames(const char *dir, const report_run *run, int picked[2], const char **rule,
                        const char *labels[2]);
+/* report_worst.c: the frames a person looks at first, each named: the worst by the PSNR of
+ * what the run ends with (refined, else restored, else sparse) and the largest changes the
+ * restorer made (restored minus sparse PSNR; without ground truth, the mean absolute change
+ * of the image), as two short tables. */
+int report_frame_lists(report_text *t, const char *dir, const report_run *run);
+/* The index of the frame with the lowest final PSNR, or -1 when no frame has a score. */
+int report_worst_frame(const report_run *run);
+/* The restorer's change on a frame: mean |restored - render| over its values in 8-bit levels,
+ * -1 when it has no restored image (report_strips.c). */
+int report_restorer_change(const char *dir, const report_frame *f, double *change);
 /* One strip: the frame's images and error maps, embedded as PNG data URIs. */
 int report_strip(report_text *t, const char *dir, const report_run *run, int index, const char *label);
 

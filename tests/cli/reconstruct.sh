@@ -114,8 +114,11 @@ text = open('all_out').read()
 for label, kind in (('sparse 3DGS', 'sparse'), ('restored', 'restored'), ('refined 3DGS', 'refined')):
     m = re.search(r'^  %s +([0-9.]+) +([0-9.]+)\$' % label, text, re.M)
     assert m and m.group(1) == '%.2f' % means[kind]['psnr'] and m.group(2) == '%.4f' % means[kind]['ssim'], (label, m)"
-    check "the video is 20 frames of 192x48" test "$(ffprobe -v error -count_frames -select_streams v:0 \
-        -show_entries stream=nb_read_frames,width,height -of csv=p=0 R/n6/flythrough.mp4)" = "192,48,20"
+    # a fly-through of 8 frames per gap through the 5 training views (4 x 8 + 1), then the 20 held-out frames
+    check "the video is 33 + 20 frames of 192x48" test "$(ffprobe -v error -count_frames -select_streams v:0 \
+        -show_entries stream=nb_read_frames,width,height -of csv=p=0 R/n6/flythrough.mp4)" = "192,48,53"
+    has "a fly-through of 33 frames through the 5 training views (sparse | refined | nearest photo), then the 20 held-out frames"
+    check "the report lists the worst frames by name" grep -q '<table class="worst">' R/report.html
 fi
 
 # metrics.json against an independent recomputation.
@@ -257,8 +260,9 @@ assert all(f['images']['ground_truth'] is None and f['sparse'] is None for f in 
 assert r['frames'][0]['name'] == 'frame_00000_to_frame_00001_1of4', r['frames'][0]
 assert r['frames'][0]['images']['restored'] == 'n1/frames/restored/frame_00000_to_frame_00001_1of4.png'"
 if [ $HAVE_FFMPEG = 1 ]; then
-    check "the path video is render | restored" test "$(ffprobe -v error -select_streams v:0 \
-        -show_entries stream=width,height -of csv=p=0 PR/n1/flythrough.mp4)" = "128,48"
+    check "the path video is 5 x 8 + 1 fly-through and 15 path frames, render | restored" test "$(ffprobe -v error \
+        -count_frames -select_streams v:0 -show_entries stream=nb_read_frames,width,height -of csv=p=0 \
+        PR/n1/flythrough.mp4)" = "128,48,56"
     check "P's report names the training scenes without a warning" \
         test "$(grep -c "was in the restorer's training set" PR/report.html)" -eq 0 -a "$(grep -c "<th>trained on</th><td>S<" PR/report.html)" -eq 1
 fi
