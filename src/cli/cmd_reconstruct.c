@@ -68,12 +68,15 @@ int cmd_reconstruct(int argc, char **argv)
     const gv_command_spec spec = {
         "reconstruct", NULL, "sparse 3DGS, restored renders, a refined model, metrics and a video of a scene",
         "Per interval n, in DIR/nN: trains sparse 3DGS on frames 0, n, 2n, ... (sparse.ply,\n"
-        "sparse.splat); renders the held-out frames between them (frames/render/); with --adapt\n"
+        "sparse.splat); renders the held-out frames between them (frames/render/, each named\n"
+        "after its photo); with --adapt\n"
         "adapts the restorer to the scene; restores every rendered frame in 5-frame clips (clean\n"
         "anchors at the training views, three renders; frames/restored/); refines the 3DGS on the\n"
         "training views and, down-weighted, the restored frames (refined.ply, refined.splat,\n"
-        "frames/refined/); scores sparse, restored and refined against the ground truth; encodes\n"
-        "render | restored | ground truth as flythrough.mp4 (ffmpeg). DIR/metrics.json has every\n"
+        "frames/refined/); scores sparse, restored and refined against the ground truth and their\n"
+        "3D consistency; encodes flythrough.mp4 (ffmpeg): a fly-through along the training cameras\n"
+        "(sparse | refined | nearest photo), then render | restored | ground truth, labelled.\n"
+        "DIR/metrics.json has every\n"
         "number and is rewritten after each stage; running the same command again skips the\n"
         "finished stages. See docs/RECONSTRUCT.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
