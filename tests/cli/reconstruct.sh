@@ -246,6 +246,25 @@ json.dump(d, open('I2/metrics.json', 'w'))"
 expect 1 "consistency: frames that are not the plan's" -- "$G" metrics consistency I2
 one_line "lists 19 frames but the scene's plan has 20"
 
+# Photos named as a phone names them: the frames, metrics.json, the video and the report name
+# them so (S's images renamed IMG_0001.JPG ..., PNG inside: images are read by signature).
+cp -r S PH
+for f in PH/images/frame_0*.png; do b=$(basename "$f" .png); mv "$f" "PH/images/IMG_${b#frame_0}.JPG"; done
+sed -i -E 's/frame_0([0-9]{4})\.png/IMG_\1.JPG/g' PH/transforms.json PH/sparse/0/images.txt
+expect 0 "photo names" -- "$G" reconstruct "${RC[@]}" --scene PH --refine-iters 5 --out PHR --stop-after $LAST
+exists PHR/n6/frames/render/IMG_0001.png
+exists PHR/n6/frames/restored/IMG_0023.png
+check "metrics.json names the photos" python3 -c "
+import json; r = json.load(open('PHR/metrics.json'))['runs'][0]
+assert [f['name'] for f in r['frames']][:2] == ['IMG_0001.JPG', 'IMG_0002.JPG'], r['frames'][0]
+assert r['frames'][0]['images']['refined'] == 'n6/frames/refined/IMG_0001.png'
+assert r['frames'][0]['images']['ground_truth'].endswith('/PH/images/IMG_0001.JPG')"
+expect 0 "photo names: consistency" -- "$G" metrics consistency PHR --threads 2
+has "n=6 consistency"
+if [ $HAVE_FFMPEG = 1 ]; then
+    check "the report names the worst frames after the photos" grep -q '<tr data-frame="[0-9]*"><td>IMG_00[0-9][0-9].JPG</td>' PHR/report.html
+fi
+
 # n = 1 on 6 frames: every view trains; 5 clips restore a path of 15 frames without ground truth.
 expect 0 "synth 6" -- "$G" scene synth --seed 4 --frames 6 --size 64x48 --samples 1 --out P --quiet
 expect 0 "smooth path" -- "$G" reconstruct "${RC[@]}" --scene P --interval 1 --out PR --stop-after $LAST
