@@ -428,6 +428,14 @@ static void test_frame_lists(const char *html)
     snprintf(text, sizeof text, METRICS, dir, dir, dir, dir);
     REQUIRE(replace_once(text, sizeof text, "{\"frame\": 2, \"images\"", "{\"frame\": 2, \"name\": \"IMG <2>.jpg\", \"images\"") == 0);
     REQUIRE(replace_once(text, sizeof text, "\"refined\": {\"psnr\": 28.25", "\"refined\": {\"psnr\": 20.5") == 0);
+    static char bad[8192];
+    snprintf(bad, sizeof bad, "%s", text);
+    REQUIRE(replace_once(text, sizeof text, "\"all_held_out\":",
+                         "\"consistency\": {\"sparse\": {\"psnr\": 30.25, \"pairs\": 4}, \"restored\": {\"psnr\": null}, "
+                         "\"refined\": {\"psnr\": 31.5}},\n   \"all_held_out\":") == 0);
+    REQUIRE(replace_once(bad, sizeof bad, "\"all_held_out\":", "\"consistency\": {\"sparse\": {\"psnr\": \"x\"}}, \"all_held_out\":") == 0);
+    write_metrics(bad);
+    CHECK_FAILS_WITH(gv_report_write_html(dir), "runs[0].consistency.sparse.psnr: expected a number, found a string");
     write_metrics(text);
     REQUIRE(gv_report_write_html(dir) == 0);
     char *named = read_report();
@@ -438,6 +446,8 @@ static void test_frame_lists(const char *html)
     CHECK(table_rows(named, "<table class=\"worst\">", rows, 8) == 3 && rows[0] == 1);
     CHECK(strstr(named, "<figcaption>worst final PSNR: r1 (frame 1)</figcaption>") != NULL);
     CHECK(strstr(named, "; and the worst frame by the PSNR of what the run ends with.") != NULL);
+    CHECK(strstr(named, "<p class=\"consistency\" data-key=\"n6.consistency\">3D consistency (each frame warped into its "
+                        "neighbours by the model&#39;s depth, masked PSNR): sparse 30.25, restored -, refined 31.50 dB") != NULL);
     free(named);
     write_good_metrics();
     CHECK(gv_report_write_html(dir) == 0); /* the page the tests after this one expect */

@@ -331,6 +331,32 @@ static void read_inputs(const cJSON *run, char *out, size_t size)
     }
 }
 
+/* "consistency" (optional: the evaluate stage adds it): per set {"psnr": number | null, ...}. */
+static int read_consistency(reader *r, const cJSON *run, report_run *out)
+{
+    int bad;
+    const cJSON *c = object_or_null(r, run, "consistency", 0, &bad);
+    if (bad) return -1;
+    if (!c) return 0;
+    size_t at = strlen(r->where);
+    enter(r, ".consistency");
+    int rc = 0;
+    for (int k = 0; k < N_MODELS && rc == 0; k++) {
+        out->consistency[k] = NAN;
+        const cJSON *set = object_or_null(r, c, report_model_names[k], 0, &bad);
+        if (bad) rc = -1;
+        const cJSON *psnr = set ? cJSON_GetObjectItem(set, "psnr") : NULL;
+        if (rc == 0 && psnr && !cJSON_IsNull(psnr)) {
+            enter(r, ".%s", report_model_names[k]);
+            rc = read_number(r, set, "psnr", 0, 1000, 0, &out->consistency[k]);
+            leave(r, at + strlen(".consistency"));
+        }
+    }
+    leave(r, at);
+    if (rc == 0) out->has_consistency = 1;
+    return rc;
+}
+
 static int read_run(reader *r, const cJSON *run, report_run *out)
 {
     char path[16];
@@ -368,6 +394,7 @@ static int read_run(reader *r, const cJSON *run, report_run *out)
         if (rc != 0) return -1;
         out->has_all_held_out = 1;
     }
+    if (read_consistency(r, run, out) != 0) return -1;
     if (read_restorer(r, run, &out->restorer) != 0) return -1;
     read_inputs(run, out->inputs, sizeof out->inputs);
     return read_stages(r, run, out);

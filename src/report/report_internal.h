@@ -56,6 +56,8 @@ typedef struct {
     report_score means[N_MODELS];
     int has_all_held_out;       /* "all_held_out": every held-out view, also those no clip restores */
     report_score all_held_out[N_MODELS]; /* sparse and refined (restored is never present) */
+    int has_consistency;        /* "consistency": the 3D consistency (docs/METRICS.md) */
+    double consistency[N_MODELS]; /* its mean PSNR per set, NAN where null */
     report_restorer restorer;   /* what restored this run, when the run says */
     char inputs[1024];          /* the run's options as "key value, ..." ("" when not recorded) */
     int n_stages;
@@ -72,6 +74,8 @@ typedef struct {
 } report_metrics;
 
 /* Reads and checks DIR/metrics.json; one line naming the key on failure. */
+/* The line that states a run's 3D consistency ("" without it). */
+void report_consistency_line(const report_run *run, char *out, size_t size);
 int report_metrics_read(const char *path, report_metrics *m);
 void report_metrics_free(report_metrics *m);
 

@@ -156,6 +156,13 @@ static int run_section(report_text *t, const char *dir, const report_metrics *m,
         text_append(t, "<h3>Restorer of this run</h3>\n");
         restorer_table(t, &run->restorer, m->scene);
     }
+    char consistency[256];
+    report_consistency_line(run, consistency, sizeof consistency);
+    if (consistency[0]) {
+        text_printf(t, "<p class=\"consistency\" data-key=\"n%d.consistency\">", run->interval);
+        text_escaped(t, consistency);
+        text_append(t, " (docs/METRICS.md).</p>\n");
+    }
     if (run->smooth)
         text_append(t, "<p class=\"note\">The frames follow a smooth path between the training views: there is no ground truth, so no PSNR.</p>\n");
     else report_plot(t, run);

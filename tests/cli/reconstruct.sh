@@ -104,6 +104,7 @@ if [ $HAVE_FFMPEG = 1 ]; then
     # the summary at the end: the means of metrics.json, in words, and where the files are
     has "n = 6, 20 held-out frames between the training views:"
     has "against the sparse renders the restored frames are"
+    has "3D consistency (each frame warped into its neighbours by the model's depth, masked PSNR): sparse"
     has "  report       R/report.html"
     has "  viewer       R/n6/viewer.html"
     has "  video        R/n6/flythrough.mp4"
