@@ -91,12 +91,21 @@ int pipeline_consistency(const pipeline_run *r, int with_pairs, cJSON **out, dou
     return 0;
 }
 
+void pipeline_consistency_means(const double psnr[3], char *out, size_t size)
+{
+    char v[3][32];
+    for (int k = 0; k < 3; k++)
+        if (isfinite(psnr[k])) snprintf(v[k], sizeof v[k], "%.2f", psnr[k]);
+        else snprintf(v[k], sizeof v[k], "- (no pixel in common)");
+    snprintf(out, size, "sparse %s, restored %s, refined %s dB", v[0], v[1], v[2]);
+}
+
 void pipeline_consistency_line(const pipeline_run *r, const double psnr[3], char *out, size_t size)
 {
-    snprintf(out, size,
-             "n=%d consistency (masked PSNR of each frame warped into its neighbours, %d pairs): sparse %.2f, "
-             "restored %.2f, refined %.2f dB",
-             r->n, 2 * (r->n_frames - 1), psnr[0], psnr[1], psnr[2]);
+    char means[160];
+    pipeline_consistency_means(psnr, means, sizeof means);
+    snprintf(out, size, "n=%d consistency (masked PSNR of each frame warped into its neighbours, %d pairs): %s", r->n,
+             2 * (r->n_frames - 1), means);
 }
 
 /* A run object of metrics.json measured again: the plan of its interval must list the same

@@ -109,10 +109,11 @@ static int record_consistency(pipeline_run *r)
     if (pipeline_consistency(r, 0, &j, psnr)) return -1;
     cJSON_DeleteItemFromObject(r->run, "consistency");
     cJSON_AddItemToObject(r->run, "consistency", j);
+    char means[160];
+    pipeline_consistency_means(psnr, means, sizeof means);
     size_t used = strlen(r->summary);
-    snprintf(r->summary + used, sizeof r->summary - used,
-             "; consistency (frames warped into their neighbours) sparse %.2f, restored %.2f, refined %.2f dB", psnr[0],
-             psnr[1], psnr[2]);
+    snprintf(r->summary + used, sizeof r->summary - used, "; consistency (frames warped into their neighbours) %s",
+             means);
     return 0;
 }
 
