@@ -16,7 +16,7 @@ model   : io nn       : model_config dit vae plucker plucker_official weight_nam
 data    : splat       : dataset internal_pairs
 train   : model data  : train condition checkpoint vae_train model_import scene_adapt
 restore : train       : restore adapt
-eval    : restore     : eval lpips
+eval    : restore     : eval lpips consistency
 report  : scene       : report
 pipeline: eval report : pipeline
 bench   : restore     : -

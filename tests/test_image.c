@@ -375,6 +375,49 @@ static void test_float_conversion(void)
     gv_image_free(&img);
 }
 
+/* Ink at (x, y) of an RGB image: the pixel is the text colour (and nothing else was drawn). */
+static int ink(const gv_image *img, int x, int y)
+{
+    const uint8_t *p = img->pixels + ((size_t)y * img->width + x) * 3;
+    return p[0] == 255 && p[1] == 200 && p[2] == 0;
+}
+
+/* The 5x7 font against glyphs drawn here by hand ('H', '?'): scale 1 and 2, clipping at the
+ * left edge, a byte outside ASCII drawn as '?', the width rule, the shading of a rectangle. */
+static void test_text(void)
+{
+    static const char *const H_ART[7] = {"#...#", "#...#", "#...#", "#####", "#...#", "#...#", "#...#"};
+    static const char *const Q_ART[7] = {".###.", "#...#", "....#", "...#.", "..#..", ".....", "..#.."};
+    const uint8_t amber[3] = {255, 200, 0};
+    gv_image img;
+    REQUIRE(gv_image_alloc(&img, 24, 20, 3) == 0);
+    gv_image_draw_text(&img, 1, 2, "H\xc3", 1, amber); /* 'H', then a UTF-8 lead byte: '?' */
+    int wrong = 0, inked = 0;
+    for (int y = 0; y < 20; y++)
+        for (int x = 0; x < 24; x++) {
+            int want = 0;
+            if (y >= 2 && y < 9 && x >= 1 && x < 6) want = H_ART[y - 2][x - 1] == '#';
+            if (y >= 2 && y < 9 && x >= 7 && x < 12) want = Q_ART[y - 2][x - 7] == '#';
+            wrong += ink(&img, x, y) != want;
+            inked += ink(&img, x, y);
+        }
+    CHECK(wrong == 0 && inked == 17 + 9);
+    /* scale 2, half off the left edge: the right half of 'H' (columns 3, 4: 2x2 blocks) shows */
+    memset(img.pixels, 0, 24 * 20 * 3);
+    gv_image_draw_text(&img, -6, 0, "H", 2, amber);
+    wrong = 0;
+    for (int y = 0; y < 14; y++)
+        for (int x = 0; x < 4; x++) wrong += ink(&img, x, y) != (H_ART[y / 2][3 + x / 2] == '#');
+    CHECK(wrong == 0 && !ink(&img, 4, 0));
+    CHECK(gv_text_width("ab", 1) == 11 && gv_text_width("ab", 3) == 33 && gv_text_width("", 2) == 0);
+    for (int i = 0; i < 24 * 20 * 3; i++) img.pixels[i] = 200;
+    gv_image_shade_rect(&img, 20, 18, 10, 10, 0.5); /* clipped to 4x2 pixels */
+    int shaded = 0;
+    for (int i = 0; i < 24 * 20; i++) shaded += img.pixels[3 * i] == 100;
+    CHECK(shaded == 8 && img.pixels[(18 * 24 + 20) * 3 + 2] == 100 && img.pixels[(17 * 24 + 20) * 3] == 200);
+    gv_image_free(&img);
+}
+
 int main(void)
 {
     snprintf(tmp, sizeof tmp, "%s", check_tmp_dir());
@@ -385,5 +428,6 @@ int main(void)
     test_malformed();
     test_downscale();
     test_float_conversion();
+    test_text();
     return check_summary();
 }

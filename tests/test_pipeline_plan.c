@@ -3,7 +3,9 @@
  * clip, and every clip is a valid dataset clip (gv_clip_check_info: anchors training views n
  * apart, three held-out frames strictly between); the tail after the last training view is
  * left to the evaluation; n = 2, 3 and n >= the frame count are refused. The smooth path of
- * n = 1: three frames 4k + j per gap, at a quarter, half and three quarters of the way. */
+ * n = 1: three frames 4k + j per gap, at a quarter, half and three quarters of the way. The
+ * frames' files are named after the photos (a phone's names, a folder, characters a file name
+ * should not carry, two photos of one stem), and the path's after the two photos around it. */
 #include "check.h"
 #include "gaussvid/core.h"
 #include "gaussvid/dataset.h"
@@ -90,6 +92,39 @@ static void check_smooth_path(void)
     pipeline_plan_free(&r);
 }
 
+static void check_names(void)
+{
+    gv_camera cams[10];
+    gv_scene s;
+    make_scene(&s, 10, cams);
+    static const char *const photos[10] = {"IMG_0001.jpg", "IMG_0002.JPG", "day 2/IMG_0003.jpeg", "IMG_0004",
+                                           "IMG_0005.jpg", "IMG_0006.jpg", "x.jpg", "x.png", "v1.2/a&b.jpg",
+                                           "IMG_0010.HEIC"};
+    for (int i = 0; i < 10; i++) snprintf(cams[i].name, sizeof cams[i].name, "%s", photos[i]);
+    pipeline_run r;
+    memset(&r, 0, sizeof r);
+    snprintf(r.dir, sizeof r.dir, "out/n4");
+    REQUIRE(pipeline_plan(&r, &s, 4) == 0); /* evaluated: 1-3, 5-7 */
+    static const char *const want[6] = {"IMG_0002", "day_2_IMG_0003", "IMG_0004", "IMG_0006", "x_00006", "x_00007"};
+    char path[4200];
+    for (int i = 0; i < r.n_frames && i < 6; i++) {
+        CHECK(!strcmp(r.frames[i].name, want[i]));
+        if (strcmp(r.frames[i].name, want[i])) printf("  frame %d: '%s', want '%s'\n", i, r.frames[i].name, want[i]);
+    }
+    CHECK(pipeline_frame_path(&r, "restored", 2, path, sizeof path) == 0 &&
+          !strcmp(path, "out/n4/frames/restored/day_2_IMG_0003.png"));
+    pipeline_frame_relpath(&r, "render", 7, path, sizeof path);
+    CHECK(!strcmp(path, "n4/frames/render/x_00007.png"));
+    CHECK_FAILS_WITH(pipeline_frame_path(&r, "render", 4, path, sizeof path), "frame 4 is not one of the run's");
+    pipeline_plan_free(&r);
+    /* the smooth path: after the photos on either side, and where between them */
+    REQUIRE(pipeline_plan(&r, &s, 1) == 0);
+    CHECK(!strcmp(r.frames[0].name, "IMG_0001_to_IMG_0002_1of4"));
+    CHECK(!strcmp(r.frames[26].name, "v1.2_a_b_to_IMG_0010_3of4"));
+    printf("  path names: %s ... %s\n", r.frames[0].name, r.frames[26].name);
+    pipeline_plan_free(&r);
+}
+
 static void check_refused(void)
 {
     gv_camera cams[25];
@@ -115,6 +150,7 @@ int main(void)
     check_held_out(40, 16, 10); /* 2 gaps of 15: 5 clips each; tail 33-39 */
     check_held_out(20, 7, 4);   /* 2 gaps of 6 (2 clips each, no overlap); tail 15-19 */
     check_smooth_path();
+    check_names();
     check_refused();
     return check_summary();
 }

@@ -396,6 +396,63 @@ static void test_unchanged_restoration(void)
     free(html);
 }
 
+/* The rows of a table in order: the data-frame of each, from the table's start to its end. */
+static int table_rows(const char *html, const char *table, int *frames, int max)
+{
+    const char *at = strstr(html, table), *end = at ? strstr(at, "</table>") : NULL;
+    int n = 0;
+    while (at && end && n < max && (at = strstr(at, "<tr data-frame=\"")) && at < end) {
+        at += strlen("<tr data-frame=\"");
+        frames[n++] = atoi(at);
+    }
+    return n;
+}
+
+/* The named lists: the worst by final PSNR (refined, else restored: frame 3 25.0, frame 1 28.25,
+ * frame 2 28.5 restored), the biggest changes by |restored - sparse| (frame 2 -1.50, frame 3
+ * +0.75, frame 1 +0.38); names from the render's file without "name", the photo's with it,
+ * escaped; and a third strip when the worst frame is neither of the two picked. */
+static void test_frame_lists(const char *html)
+{
+    const char *run = strstr(html, "id=\"n6\"");
+    REQUIRE(run != NULL);
+    int rows[8];
+    CHECK(table_rows(run, "<table class=\"worst\">", rows, 8) == 3 && rows[0] == 3 && rows[1] == 1 && rows[2] == 2);
+    CHECK(strstr(run, "<tr data-frame=\"3\"><td>r3</td><td>3</td><td>24.00</td><td>24.75</td><td>25.00</td></tr>") != NULL);
+    CHECK(strstr(run, "<tr data-frame=\"2\"><td>r2</td><td>2</td><td>30.00</td><td>28.50</td><td>&ndash;</td></tr>") != NULL);
+    CHECK(table_rows(run, "<table class=\"changes\">", rows, 8) == 3 && rows[0] == 2 && rows[1] == 3 && rows[2] == 1);
+    CHECK(strstr(run, "<td>-1.50</td>") != NULL && strstr(run, "<td>+0.75</td>") != NULL);
+    CHECK(strstr(run, "<figcaption>worst: r2 (frame 2)</figcaption>") != NULL);
+
+    static char text[8192];
+    snprintf(text, sizeof text, METRICS, dir, dir, dir, dir);
+    REQUIRE(replace_once(text, sizeof text, "{\"frame\": 2, \"images\"", "{\"frame\": 2, \"name\": \"IMG <2>.jpg\", \"images\"") == 0);
+    REQUIRE(replace_once(text, sizeof text, "\"refined\": {\"psnr\": 28.25", "\"refined\": {\"psnr\": 20.5") == 0);
+    static char bad[8192];
+    snprintf(bad, sizeof bad, "%s", text);
+    REQUIRE(replace_once(text, sizeof text, "\"all_held_out\":",
+                         "\"consistency\": {\"sparse\": {\"psnr\": 30.25, \"pairs\": 4}, \"restored\": {\"psnr\": null}, "
+                         "\"refined\": {\"psnr\": 31.5}},\n   \"all_held_out\":") == 0);
+    REQUIRE(replace_once(bad, sizeof bad, "\"all_held_out\":", "\"consistency\": {\"sparse\": {\"psnr\": \"x\"}}, \"all_held_out\":") == 0);
+    write_metrics(bad);
+    CHECK_FAILS_WITH(gv_report_write_html(dir), "runs[0].consistency.sparse.psnr: expected a number, found a string");
+    write_metrics(text);
+    REQUIRE(gv_report_write_html(dir) == 0);
+    char *named = read_report();
+    REQUIRE(named != NULL);
+    CHECK(strstr(named, "<figcaption>worst: IMG &lt;2&gt;.jpg (frame 2)</figcaption>") != NULL);
+    CHECK(strstr(named, "<td>IMG &lt;2&gt;.jpg</td><td>2</td>") != NULL);
+    /* frame 1 now ends worst (20.5 dB) but restoration lost and gained most on 2 and 3 */
+    CHECK(table_rows(named, "<table class=\"worst\">", rows, 8) == 3 && rows[0] == 1);
+    CHECK(strstr(named, "<figcaption>worst final PSNR: r1 (frame 1)</figcaption>") != NULL);
+    CHECK(strstr(named, "; and the worst frame by the PSNR of what the run ends with.") != NULL);
+    CHECK(strstr(named, "<p class=\"consistency\" data-key=\"n6.consistency\">3D consistency (each frame warped into its "
+                        "neighbours by the model&#39;s depth, masked PSNR): sparse 30.25, restored -, refined 31.50 dB") != NULL);
+    free(named);
+    write_good_metrics();
+    CHECK(gv_report_write_html(dir) == 0); /* the page the tests after this one expect */
+}
+
 int main(void)
 {
     snprintf(dir, sizeof dir, "%s", check_tmp_dir());
@@ -422,6 +479,7 @@ int main(void)
     test_plot(html, root);
     test_error_map(html);
     test_self_contained(html);
+    test_frame_lists(html);
     test_bad_input(html);
     test_unchanged_restoration();
     cJSON_Delete(root);

@@ -48,4 +48,16 @@ void gv_image_from_float(gv_image *img, const float *in);
  * nearest (halves up); when k divides the size this is the mean of a k x k block. */
 int gv_image_downscale(const gv_image *in, int factor, gv_image *out);
 
+/* ---- labels (image_text.c): a 5x7 bitmap font of printable ASCII -------------------- */
+#define GV_GLYPH_W 5
+#define GV_GLYPH_H 7
+/* Width in pixels of text drawn at an integer scale: (6 n - 1) scale for n characters. */
+int gv_text_width(const char *text, int scale);
+/* Draws text with its top-left corner at (x, y), each font pixel a scale x scale block of
+ * colour rgb, one column of space between characters; bytes outside printable ASCII are drawn
+ * as '?'; whatever falls outside the image is clipped. RGB or RGBA images (others unchanged). */
+void gv_image_draw_text(gv_image *img, int x, int y, const char *text, int scale, const uint8_t rgb[3]);
+/* Darkens a rectangle (clipped to the image): each colour value times keep (0..1), rounded. */
+void gv_image_shade_rect(gv_image *img, int x, int y, int w, int h, double keep);
+
 #endif

@@ -24,6 +24,7 @@
 #ifndef GAUSSVID_PIPELINE_H
 #define GAUSSVID_PIPELINE_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "gaussvid/adapt.h"
@@ -66,5 +67,14 @@ const char *const *gv_reconstruct_stages(int *n);
 
 /* Runs (or resumes) every interval's stages; fails with one line naming the input. */
 int gv_reconstruct(const gv_reconstruct_options *o);
+
+/* The 3D consistency (docs/METRICS.md) of every run of a reconstruct output folder: per run,
+ * the sparse renders, the restored frames (both with the sparse model's depth) and the refined
+ * renders (the refined model's), each frame warped into its previous and next in path order.
+ * *json (free()): {"dir", "runs": [{"interval", "frames", "sparse": {"psnr", "coverage",
+ * "pairs", "scored", "depth", "per_pair": [{"from", "to", "psnr", "coverage"}]}, "restored",
+ * "refined"}]}; summary: one line per run. Fails with one line on a missing or foreign
+ * metrics.json, a run whose frames are not its plan's, a missing or mis-sized frame or model. */
+int gv_reconstruct_consistency(const char *dir, char **json, char *summary, size_t size);
 
 #endif

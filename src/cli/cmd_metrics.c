@@ -1,6 +1,8 @@
 /* gaussvid metrics A B [--json] [--lpips WEIGHTS]: PSNR and SSIM of two images as the
  * reference 3DGS evaluation computes them (docs/METRICS.md), and LPIPS when its AlexNet
- * weights are given (docs/LPIPS.md). */
+ * weights are given (docs/LPIPS.md). `gaussvid metrics consistency DIR` is
+ * cmd_metrics_consistency.c. */
+#include <string.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -35,6 +37,7 @@ static int print_json(double psnr, double ssim, const double *lpips, int width, 
 
 int cmd_metrics(int argc, char **argv)
 {
+    if (argc >= 2 && !strcmp(argv[1], "consistency")) return cmd_metrics_consistency(argc - 1, argv + 1);
     int json = 0;
     const char *lpips_path = NULL;
     const gv_flag flags[] = {
@@ -51,7 +54,9 @@ int cmd_metrics(int argc, char **argv)
         "channels. Identical images have infinite PSNR, written as null in JSON together with\n"
         "\"identical\": true. JSON keys: psnr, ssim, width, height, identical.\n"
         "--lpips adds LPIPS (0 for identical images; lower is closer), as lpips.LPIPS(net='alex')\n"
-        "on the RGB images read as v / 127.5 - 1; both must be at least 31x31. JSON key: lpips.",
+        "on the RGB images read as v / 127.5 - 1; both must be at least 31x31. JSON key: lpips.\n"
+        "'gaussvid metrics consistency DIR' measures the 3D consistency of a reconstruct folder's\n"
+        "frames (see its --help).",
         flags, 2, 2, 2};
     char *positional[2];
     int n_positional = 0;

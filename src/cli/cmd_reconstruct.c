@@ -68,14 +68,15 @@ int cmd_reconstruct(int argc, char **argv)
     const gv_command_spec spec = {
         "reconstruct", NULL, "sparse 3DGS, restored renders, a refined model, metrics and a video of a scene",
         "Per interval n, in DIR/nN: trains sparse 3DGS on frames 0, n, 2n, ... (sparse.ply,\n"
-        "sparse.splat); renders the held-out frames between them (frames/render/); with --adapt\n"
-        "adapts the restorer to the scene; restores every rendered frame in 5-frame clips (clean\n"
-        "anchors at the training views, three renders; frames/restored/); refines the 3DGS on the\n"
-        "training views and, down-weighted, the restored frames (refined.ply, refined.splat,\n"
-        "frames/refined/); scores sparse, restored and refined against the ground truth; encodes\n"
-        "render | restored | ground truth as flythrough.mp4 (ffmpeg). DIR/metrics.json has every\n"
-        "number and is rewritten after each stage; running the same command again skips the\n"
-        "finished stages. See docs/RECONSTRUCT.md.",
+        "sparse.splat); renders the held-out frames between them (frames/render/, each named after\n"
+        "its photo); with --adapt adapts the restorer to the scene; restores every rendered frame\n"
+        "in 5-frame clips (clean anchors at the training views, three renders; frames/restored/);\n"
+        "refines the 3DGS on the training views and, down-weighted, the restored frames\n"
+        "(refined.ply, refined.splat, frames/refined/); scores sparse, restored and refined against\n"
+        "the ground truth and their 3D consistency; encodes flythrough.mp4 (ffmpeg): a fly-through\n"
+        "along the training cameras (sparse | refined | nearest photo), then render | restored |\n"
+        "ground truth, labelled. DIR/metrics.json has every number and is rewritten after each\n"
+        "stage; running the same command again skips the finished stages. See docs/RECONSTRUCT.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);

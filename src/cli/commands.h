@@ -17,6 +17,7 @@ int gv_run_subcommand(const char *group, const gv_subcommand *table, int n, int 
 int gv_parse_crop(const char *command, const char *text, int *rows, int *cols);
 
 int cmd_metrics(int argc, char **argv);
+int cmd_metrics_consistency(int argc, char **argv);
 int cmd_model(int argc, char **argv);
 int cmd_model_run(int argc, char **argv);
 int cmd_model_import(int argc, char **argv);

@@ -101,6 +101,22 @@ static int load_models(pipeline_run *r, gv_gaussians models[2])
            pipeline_file(r, "refined.ply", path, sizeof path) || gv_gaussians_read_ply(path, &models[1]);
 }
 
+/* The run's "consistency" (consistency.c), its means appended to the stage's summary. */
+static int record_consistency(pipeline_run *r)
+{
+    cJSON *j;
+    double psnr[3];
+    if (pipeline_consistency(r, 0, &j, psnr)) return -1;
+    cJSON_DeleteItemFromObject(r->run, "consistency");
+    cJSON_AddItemToObject(r->run, "consistency", j);
+    char means[160];
+    pipeline_consistency_means(psnr, means, sizeof means);
+    size_t used = strlen(r->summary);
+    snprintf(r->summary + used, sizeof r->summary - used, "; consistency (frames warped into their neighbours) %s",
+             means);
+    return 0;
+}
+
 int pipeline_evaluate(pipeline_run *r)
 {
     gv_lpips lpips;
@@ -157,5 +173,5 @@ int pipeline_evaluate(pipeline_run *r)
                  sums[0].psnr / sums[0].frames, sums[1].psnr / sums[1].frames, sums[2].psnr / sums[2].frames,
                  sums[0].ssim / sums[0].frames, sums[1].ssim / sums[1].frames, sums[2].ssim / sums[2].frames,
                  sums[0].frames, all[0].frames, all[0].psnr / all[0].frames, all[1].psnr / all[1].frames);
-    return 0;
+    return record_consistency(r);
 }

@@ -128,16 +128,30 @@ static void describe_difference(const cJSON *was, const cJSON *now, char *out, s
     }
 }
 
+/* The frame's name as a person reads it, and its images' paths: set again on a resumed run,
+ * whose folder may have been written when frames were named otherwise. */
+static void set_string(cJSON *o, const char *key, const char *value)
+{
+    if (cJSON_GetObjectItem(o, key)) cJSON_ReplaceItemInObject(o, key, cJSON_CreateString(value)); /* keeps the order */
+    else cJSON_AddStringToObject(o, key, value);
+}
+
+static void name_frame(const pipeline_run *r, const pipeline_frame *f, cJSON *j, cJSON *images)
+{
+    char rel[256];
+    const char *kinds[3] = {"render", "restored", "refined"};
+    set_string(j, "name", r->smooth_path ? f->name : r->scene->cameras[f->index].name);
+    for (int k = 0; k < 3; k++) {
+        pipeline_frame_relpath(r, kinds[k], f->index, rel, sizeof rel);
+        set_string(images, kinds[k], rel);
+    }
+}
+
 static cJSON *frame_json(const pipeline_run *r, const pipeline_frame *f)
 {
     cJSON *j = cJSON_CreateObject(), *images = cJSON_CreateObject();
-    char rel[256];
     cJSON_AddNumberToObject(j, "frame", f->index);
-    const char *kinds[3] = {"render", "restored", "refined"};
-    for (int k = 0; k < 3; k++) {
-        pipeline_frame_relpath(r, kinds[k], f->index, rel, sizeof rel);
-        cJSON_AddStringToObject(images, kinds[k], rel);
-    }
+    name_frame(r, f, j, images);
     char truth[PATH_MAX], abs[PATH_MAX];
     if (f->truth >= 0 && realpath(r->scene->image_dir, abs) &&
         snprintf(truth, sizeof truth, "%s/%s", abs, r->scene->cameras[f->truth].name) < (int)sizeof truth)
@@ -179,6 +193,11 @@ int pipeline_doc_run(pipeline_run *r)
     if (found) { /* the stages' records say what they were made from (pipeline_stage_done) */
         cJSON_ReplaceItemInObject(found, "inputs", inputs);
         r->run = found;
+        cJSON *frames = cJSON_GetObjectItem(found, "frames");
+        for (int i = 0; i < r->n_frames && i < cJSON_GetArraySize(frames); i++) {
+            cJSON *fj = cJSON_GetArrayItem(frames, i), *images = cJSON_GetObjectItem(fj, "images");
+            if (images) name_frame(r, &r->frames[i], fj, images);
+        }
         return 0;
     }
     r->run = new_run(r, inputs);

@@ -9,7 +9,10 @@
 #include "gaussvid/dataset.h"
 #include "gaussvid/gaussians.h"
 #include "gaussvid/pipeline.h"
+#include "gaussvid/render.h"
 #include "gaussvid/scene.h"
+
+#define PIPELINE_NAME_MAX 160
 
 /* One evaluated frame: a held-out view of the scene or a camera of the smooth path. */
 typedef struct {
@@ -17,6 +20,8 @@ typedef struct {
     gv_camera camera;
     int truth;                   /* scene frame with ground truth, or -1 */
     int clip, slot;              /* the clip that restores it and its place there (1..3) */
+    char name[PIPELINE_NAME_MAX];/* its files' name without .png: the photo's (held-out) or
+                                    "<photo a>_to_<photo b>_<j>of4" (path), unique in the run */
 } pipeline_frame;
 
 typedef struct {
@@ -44,7 +49,8 @@ int pipeline_check_interval(const gv_scene *scene, int n);
 /* The training views, the evaluated frames and the clips of interval n. */
 int pipeline_plan(pipeline_run *r, const gv_scene *scene, int n);
 void pipeline_plan_free(pipeline_run *r);
-/* DIR/nN/<what>/frame_%05d.png of an evaluated frame (what: render, restored, refined). */
+/* DIR/nN/frames/<what>/<name>.png of the evaluated frame numbered `frame` (what: render,
+ * restored, refined). */
 int pipeline_frame_path(const pipeline_run *r, const char *what, int frame, char *out, size_t size);
 /* The same path relative to DIR (metrics.json's "images"). */
 void pipeline_frame_relpath(const pipeline_run *r, const char *what, int frame, char *out, size_t size);
@@ -62,8 +68,29 @@ int pipeline_adapt(pipeline_run *r);
 int pipeline_restore(pipeline_run *r);
 /* evaluate.c */
 int pipeline_evaluate(pipeline_run *r);
+/* consistency.c: the 3D consistency of the run's sparse renders, restored frames and refined
+ * renders (gv_consistency_measure in path order): an object {"sparse": {"psnr", "coverage",
+ * "pairs", "scored", "depth"[, "per_pair"]}, "restored", "refined"} and the three mean PSNRs. */
+int pipeline_consistency(const pipeline_run *r, int with_pairs, cJSON **out, double psnr[3]);
+/* Its one-line summary; the three means alone ("sparse 30.24, restored 30.21, refined 30.43 dB"). */
+void pipeline_consistency_line(const pipeline_run *r, const double psnr[3], char *out, size_t size);
+void pipeline_consistency_means(const double psnr[3], char *out, size_t size);
 /* video.c */
 int pipeline_video(pipeline_run *r);
+/* video_frames.c: the video's frames, a fly-through along the training cameras and then the
+ * evaluated frames, each W x H RGB (panels of the frames' size side by side, padded to even). */
+typedef struct {
+    pipeline_run *r;
+    int w, h, W, H, panels, scale;
+    int steps;                   /* fly-through frames per gap between training views */
+    int n_flight, n_total;       /* fly-through frames; all frames */
+    gv_gaussians models[2];      /* sparse, refined */
+    gv_splat_renderer renderer;
+} pipeline_video_frames;
+int pipeline_video_open(pipeline_video_frames *v, pipeline_run *r);
+/* Frame i (0 .. n_total - 1) into out (W x H x 3 bytes). */
+int pipeline_video_frame(pipeline_video_frames *v, int i, uint8_t *out);
+void pipeline_video_close(pipeline_video_frames *v);
 /* The ffmpeg program to use: o->ffmpeg, else "ffmpeg" found on the PATH; fails with one line
  * saying how to install it. */
 int pipeline_find_ffmpeg(const gv_reconstruct_options *o, char *out, size_t size);

@@ -72,6 +72,53 @@ static int plan_smooth_path(pipeline_run *r)
     return 0;
 }
 
+/* A photo's name as a file stem: the extension dropped, anything but letters, digits, '.',
+ * '-' and '_' (a folder's '/', spaces) made '_', at most max - 1 bytes. */
+static void stem_of(const char *image_name, char *out, size_t max)
+{
+    size_t n = 0;
+    const char *dot = strrchr(image_name, '.'), *slash = strrchr(image_name, '/');
+    if (dot && slash && dot < slash) dot = NULL; /* a dot in a folder name */
+    for (const char *c = image_name; *c && c != dot && n + 1 < max; c++) {
+        int keep = (*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') || (*c >= '0' && *c <= '9') || *c == '.' ||
+                   *c == '-' || *c == '_';
+        out[n++] = keep ? *c : '_';
+    }
+    if (n == 0) out[n++] = '_';
+    out[n] = 0;
+}
+
+/* Frames named after the photos; two photos that make one stem (x.jpg and x.png) keep their
+ * frame numbers too, so every name of the run is unique. */
+static int name_frames(pipeline_run *r)
+{
+    const gv_camera *cams = r->scene->cameras;
+    for (int i = 0; i < r->n_frames; i++) {
+        pipeline_frame *f = &r->frames[i];
+        if (!r->smooth_path) {
+            stem_of(cams[f->index].name, f->name, sizeof f->name);
+            continue;
+        }
+        int k = f->index / (SLOTS + 1), j = f->index % (SLOTS + 1);
+        char a[64], b[64];
+        stem_of(cams[r->train[k]].name, a, sizeof a), stem_of(cams[r->train[k + 1]].name, b, sizeof b);
+        snprintf(f->name, sizeof f->name, "%s_to_%s_%dof%d", a, b, j, SLOTS + 1);
+    }
+    char *clash = calloc((size_t)r->n_frames + 1, 1);
+    if (!clash) return gv_fail("out of memory naming %d frames", r->n_frames);
+    for (int i = 0; i < r->n_frames; i++)
+        for (int k = i + 1; k < r->n_frames; k++)
+            if (!strcmp(r->frames[k].name, r->frames[i].name)) clash[i] = clash[k] = 1;
+    for (int i = 0; i < r->n_frames; i++) {
+        pipeline_frame *f = &r->frames[i];
+        char stem[PIPELINE_NAME_MAX - 16];
+        snprintf(stem, sizeof stem, "%s", f->name);
+        if (clash[i]) snprintf(f->name, sizeof f->name, "%s_%05d", stem, f->index);
+    }
+    free(clash);
+    return 0;
+}
+
 int pipeline_check_interval(const gv_scene *scene, int n)
 {
     if (n != 1 && n < SLOTS + 1)
@@ -95,7 +142,15 @@ int pipeline_plan(pipeline_run *r, const gv_scene *scene, int n)
     if (!r->train || !r->held_out) return gv_fail("out of memory for %d frames", total);
     if (gv_scene_split(total, n, r->train, &r->n_train, r->held_out, &r->n_held_out))
         return gv_fail_context("%s: --interval %d", scene->dir, n);
-    return r->smooth_path ? plan_smooth_path(r) : plan_held_out(r);
+    if (r->smooth_path ? plan_smooth_path(r) : plan_held_out(r)) return -1;
+    return name_frames(r);
+}
+
+static const char *frame_name(const pipeline_run *r, int frame)
+{
+    for (int i = 0; i < r->n_frames; i++)
+        if (r->frames[i].index == frame) return r->frames[i].name;
+    return NULL;
 }
 
 int pipeline_file(const pipeline_run *r, const char *name, char *out, size_t size)
@@ -105,11 +160,14 @@ int pipeline_file(const pipeline_run *r, const char *name, char *out, size_t siz
 
 int pipeline_frame_path(const pipeline_run *r, const char *what, int frame, char *out, size_t size)
 {
-    int len = snprintf(out, size, "%s/frames/%s/frame_%05d.png", r->dir, what, frame);
+    const char *name = frame_name(r, frame);
+    if (!name) return gv_fail("%s: frame %d is not one of the run's", r->dir, frame);
+    int len = snprintf(out, size, "%s/frames/%s/%s.png", r->dir, what, name);
     return len < 0 || (size_t)len >= size ? gv_fail("%s: path too long", r->dir) : 0;
 }
 
 void pipeline_frame_relpath(const pipeline_run *r, const char *what, int frame, char *out, size_t size)
 {
-    snprintf(out, size, "n%d/frames/%s/frame_%05d.png", r->n, what, frame);
+    const char *name = frame_name(r, frame);
+    snprintf(out, size, "n%d/frames/%s/%s.png", r->n, what, name ? name : "?");
 }

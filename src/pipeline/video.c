@@ -1,6 +1,6 @@
-/* The video stage of `reconstruct`: the evaluated frames in path order, render | restored |
- * ground truth (when the frame has it) side by side, encoded to nN/flythrough.mp4 by Debian's
- * ffmpeg program (H.264 in MP4, yuv420p, the size padded to even numbers), fed raw RGB
+/* The video stage of `reconstruct`: the frames of video_frames.c (a fly-through along the
+ * training cameras, then the evaluated frames side by side, labelled) encoded to
+ * nN/flythrough.mp4 by Debian's ffmpeg program (H.264 in MP4, yuv420p, the size padded to even numbers), fed raw RGB
  * through a pipe. It writes to a temporary beside the video and renames on success (the
  * atomic writer's naming, so gv_atomic_sweep removes a killed run's leftover); ffmpeg's own
  * messages go to nN/flythrough.log. */
@@ -21,27 +21,6 @@ int pipeline_find_ffmpeg(const gv_reconstruct_options *o, char *out, size_t size
     if (o->ffmpeg) return gv_fail("%s: not an executable ffmpeg program", o->ffmpeg);
     return gv_fail("ffmpeg is not installed: the video stage needs Debian's ffmpeg (scripts/setup.sh installs it; "
                    "or stop earlier with --stop-after evaluate)");
-}
-
-/* One side-by-side frame: the panels of frame i, each w x h, into out (W x H, W, H even). */
-static int compose(pipeline_run *r, int i, int panels, int w, int h, int W, uint8_t *out)
-{
-    const pipeline_frame *f = &r->frames[i];
-    memset(out, 0, (size_t)W * h * 3 + (size_t)W * 3 * (size_t)(h & 1));
-    for (int p = 0; p < panels; p++) {
-        gv_image img = {0};
-        char path[4200];
-        int rc = p < 2 ? pipeline_frame_path(r, p ? "restored" : "render", f->index, path, sizeof path) ||
-                             gv_image_read_rgb(path, &img)
-                       : gv_scene_load_image(r->scene, f->truth, &img);
-        if (rc == 0 && (img.width != w || img.height != h))
-            rc = gv_fail("%s: frame %d is %dx%d, not %dx%d", r->dir, f->index, img.width, img.height, w, h);
-        for (int y = 0; rc == 0 && y < h; y++)
-            memcpy(out + ((size_t)y * W + (size_t)p * w) * 3, img.pixels + (size_t)y * w * 3, (size_t)w * 3);
-        gv_image_free(&img);
-        if (rc) return -1;
-    }
-    return 0;
 }
 
 /* Starts ffmpeg reading W x H RGB frames on a pipe; *to_ffmpeg is its stdin. */
@@ -90,10 +69,14 @@ int pipeline_video(pipeline_run *r)
         pipeline_file(r, "flythrough.log", log, sizeof log))
         return -1;
     snprintf(tmp, sizeof tmp, "%s.tmp.%ld", video, (long)getpid());
-    int w = r->frames[0].camera.width, h = r->frames[0].camera.height, panels = r->frames[0].truth >= 0 ? 3 : 2;
-    int W = (panels * w + 1) & ~1, H = (h + 1) & ~1;
+    pipeline_video_frames v;
+    if (pipeline_video_open(&v, r)) return -1;
+    int W = v.W, H = v.H;
     uint8_t *frame = calloc((size_t)W * H * 3, 1);
-    if (!frame) return gv_fail("out of memory for a %dx%d video frame", W, H);
+    if (!frame) {
+        pipeline_video_close(&v);
+        return gv_fail("out of memory for a %dx%d video frame", W, H);
+    }
     int to_ffmpeg = -1, rc = 0;
     void (*old_pipe)(int) = signal(SIGPIPE, SIG_IGN); /* ffmpeg failing must not kill us */
     pid_t pid = start_ffmpeg(ffmpeg, W, H, r->opt->fps, tmp, log, &to_ffmpeg);
@@ -101,9 +84,9 @@ int pipeline_video(pipeline_run *r)
     gv_progress bar;
     char label[48];
     snprintf(label, sizeof label, "video n=%d", r->n);
-    gv_progress_start(&bar, label, r->n_frames);
-    for (int i = 0; i < r->n_frames && rc == 0; i++) {
-        rc = compose(r, i, panels, w, h, W, frame);
+    gv_progress_start(&bar, label, v.n_total);
+    for (int i = 0; i < v.n_total && rc == 0; i++) {
+        rc = pipeline_video_frame(&v, i, frame);
         if (rc == 0 && write_all(to_ffmpeg, frame, (size_t)W * H * 3))
             rc = gv_fail("%s: ffmpeg stopped reading frames (its messages: %s)", video, log);
         gv_progress_update(&bar, i + 1, NULL);
@@ -119,7 +102,12 @@ int pipeline_video(pipeline_run *r)
     if (rc) unlink(tmp);
     free(frame);
     if (rc == 0)
-        snprintf(r->summary, sizeof r->summary, "%s: %d frames at %g fps, %s side by side", video, r->n_frames,
-                 r->opt->fps, panels == 3 ? "render | restored | ground truth" : "render | restored");
+        snprintf(r->summary, sizeof r->summary,
+                 "%s: %d frames at %g fps: a fly-through of %d frames through the %d training views (sparse | "
+                 "refined%s), then the %d %s frames (%s)",
+                 video, v.n_total, r->opt->fps, v.n_flight, r->n_train, v.panels == 3 ? " | nearest photo" : "",
+                 r->n_frames, r->smooth_path ? "path" : "held-out",
+                 v.panels == 3 ? "render | restored | ground truth" : "render | restored");
+    pipeline_video_close(&v);
     return rc;
 }

@@ -183,6 +183,22 @@ static int read_images(reader *r, const cJSON *frame, report_frame *f)
     return rc;
 }
 
+/* The frame's name: "name" (the photo's, absent from folders written before it), else the
+ * render's file name without its folder and .png. */
+static int read_name(reader *r, const cJSON *frame, report_frame *f)
+{
+    char name[4096] = "";
+    if (cJSON_GetObjectItem(frame, "name") && read_string(r, frame, "name", 1, name, sizeof name)) return -1;
+    if (has_control_character(name)) return bad_key(r, "name", "the name contains a control character");
+    if (!name[0]) {
+        const char *base = strrchr(f->images[IMAGE_RENDER], '/');
+        snprintf(name, sizeof name, "%s", base ? base + 1 : f->images[IMAGE_RENDER]);
+        size_t n = strlen(name);
+        if (n > 4 && !strcmp(name + n - 4, ".png")) name[n - 4] = '\0';
+    }
+    return (f->name = strdup(name)) ? 0 : gv_fail("out of memory");
+}
+
 static int read_frames(reader *r, const cJSON *run, report_run *out)
 {
     const cJSON *frames = member(r, run, "frames", 1);
@@ -200,6 +216,7 @@ static int read_frames(reader *r, const cJSON *run, report_run *out)
         int rc = cJSON_IsObject(frame) ? 0 : gv_fail("%s: %s: expected an object, found %s", r->path, r->where, gv_json_type(frame));
         if (rc == 0) rc = read_int(r, frame, "frame", 0, 1 << 30, &f->frame);
         if (rc == 0) rc = read_images(r, frame, f);
+        if (rc == 0) rc = read_name(r, frame, f);
         for (int k = 0; k < N_MODELS && rc == 0; k++) rc = read_score(r, frame, report_model_names[k], 0, &f->score[k]);
         leave(r, at);
         if (rc != 0) return -1;
@@ -314,6 +331,32 @@ static void read_inputs(const cJSON *run, char *out, size_t size)
     }
 }
 
+/* "consistency" (optional: the evaluate stage adds it): per set {"psnr": number | null, ...}. */
+static int read_consistency(reader *r, const cJSON *run, report_run *out)
+{
+    int bad;
+    const cJSON *c = object_or_null(r, run, "consistency", 0, &bad);
+    if (bad) return -1;
+    if (!c) return 0;
+    size_t at = strlen(r->where);
+    enter(r, ".consistency");
+    int rc = 0;
+    for (int k = 0; k < N_MODELS && rc == 0; k++) {
+        out->consistency[k] = NAN;
+        const cJSON *set = object_or_null(r, c, report_model_names[k], 0, &bad);
+        if (bad) rc = -1;
+        const cJSON *psnr = set ? cJSON_GetObjectItem(set, "psnr") : NULL;
+        if (rc == 0 && psnr && !cJSON_IsNull(psnr)) {
+            enter(r, ".%s", report_model_names[k]);
+            rc = read_number(r, set, "psnr", 0, 1000, 0, &out->consistency[k]);
+            leave(r, at + strlen(".consistency"));
+        }
+    }
+    leave(r, at);
+    if (rc == 0) out->has_consistency = 1;
+    return rc;
+}
+
 static int read_run(reader *r, const cJSON *run, report_run *out)
 {
     char path[16];
@@ -351,6 +394,7 @@ static int read_run(reader *r, const cJSON *run, report_run *out)
         if (rc != 0) return -1;
         out->has_all_held_out = 1;
     }
+    if (read_consistency(r, run, out) != 0) return -1;
     if (read_restorer(r, run, &out->restorer) != 0) return -1;
     read_inputs(run, out->inputs, sizeof out->inputs);
     return read_stages(r, run, out);
@@ -410,8 +454,10 @@ void report_metrics_free(report_metrics *m)
 {
     for (int i = 0; i < m->n_runs; i++) {
         report_run *run = &m->runs[i];
-        for (int f = 0; f < run->n_frames; f++)
+        for (int f = 0; f < run->n_frames; f++) {
             for (int k = 0; k < N_IMAGES; k++) free(run->frames[f].images[k]);
+            free(run->frames[f].name);
+        }
         free(run->frames);
         free(run->train_frames);
         free(run->stages);

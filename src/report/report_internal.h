@@ -25,6 +25,7 @@ typedef struct {
 typedef struct {
     int frame;
     char *images[N_IMAGES];     /* as written: relative to DIR, ground truth absolute; NULL when null */
+    char *name;                 /* the photo's name ("name"), else the render's file name */
     report_score score[N_MODELS];
 } report_frame;
 
@@ -55,6 +56,8 @@ typedef struct {
     report_score means[N_MODELS];
     int has_all_held_out;       /* "all_held_out": every held-out view, also those no clip restores */
     report_score all_held_out[N_MODELS]; /* sparse and refined (restored is never present) */
+    int has_consistency;        /* "consistency": the 3D consistency (docs/METRICS.md) */
+    double consistency[N_MODELS]; /* its mean PSNR per set, NAN where null */
     report_restorer restorer;   /* what restored this run, when the run says */
     char inputs[1024];          /* the run's options as "key value, ..." ("" when not recorded) */
     int n_stages;
@@ -71,6 +74,8 @@ typedef struct {
 } report_metrics;
 
 /* Reads and checks DIR/metrics.json; one line naming the key on failure. */
+/* The line that states a run's 3D consistency ("" without it). */
+void report_consistency_line(const report_run *run, char *out, size_t size);
 int report_metrics_read(const char *path, report_metrics *m);
 void report_metrics_free(report_metrics *m);
 
@@ -101,6 +106,16 @@ void report_plot(report_text *t, const report_run *run);
  * two strips' labels. */
 int report_pick_frames(const char *dir, const report_run *run, int picked[2], const char **rule,
                        const char *labels[2]);
+/* report_worst.c: the frames a person looks at first, each named: the worst by the PSNR of
+ * what the run ends with (refined, else restored, else sparse) and the largest changes the
+ * restorer made (restored minus sparse PSNR; without ground truth, the mean absolute change
+ * of the image), as two short tables. */
+int report_frame_lists(report_text *t, const char *dir, const report_run *run);
+/* The index of the frame with the lowest final PSNR, or -1 when no frame has a score. */
+int report_worst_frame(const report_run *run);
+/* The restorer's change on a frame: mean |restored - render| over its values in 8-bit levels,
+ * -1 when it has no restored image (report_strips.c). */
+int report_restorer_change(const char *dir, const report_frame *f, double *change);
 /* One strip: the frame's images and error maps, embedded as PNG data URIs. */
 int report_strip(report_text *t, const char *dir, const report_run *run, int index, const char *label);
 

@@ -156,19 +156,33 @@ static int run_section(report_text *t, const char *dir, const report_metrics *m,
         text_append(t, "<h3>Restorer of this run</h3>\n");
         restorer_table(t, &run->restorer, m->scene);
     }
+    char consistency[256];
+    report_consistency_line(run, consistency, sizeof consistency);
+    if (consistency[0]) {
+        text_printf(t, "<p class=\"consistency\" data-key=\"n%d.consistency\">", run->interval);
+        text_escaped(t, consistency);
+        text_append(t, " (docs/METRICS.md).</p>\n");
+    }
     if (run->smooth)
         text_append(t, "<p class=\"note\">The frames follow a smooth path between the training views: there is no ground truth, so no PSNR.</p>\n");
     else report_plot(t, run);
 
+    if (report_frame_lists(t, dir, run) != 0) return -1;
     int picked[2];
     const char *rule = "", *labels[2];
     if (report_pick_frames(dir, run, picked, &rule, labels) != 0) return -1;
     if (picked[0] >= 0) {
         text_append(t, "<h3>Frames</h3>\n<p class=\"note\">Shown: ");
         text_escaped(t, rule);
+        int worst = report_worst_frame(run);
+        if (worst >= 0 && worst != picked[0] && worst != picked[1])
+            text_append(t, "; and the worst frame by the PSNR of what the run ends with");
         text_append(t, ".</p>\n");
         for (int k = 0; k < 2; k++)
             if ((k == 0 || picked[1] != picked[0]) && report_strip(t, dir, run, picked[k], labels[k]) != 0) return -1;
+        if (worst >= 0 && worst != picked[0] && worst != picked[1] &&
+            report_strip(t, dir, run, worst, "worst final PSNR") != 0)
+            return -1;
     }
     timings(t, run);
     text_append(t, "</section>\n");

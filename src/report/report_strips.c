@@ -27,8 +27,7 @@ static double mean_abs_difference(const gv_image *a, const gv_image *b)
     return n ? sum / (double)n : 0;
 }
 
-/* The restorer's change on frame f, read from its images; -1 when it has none. */
-static int restorer_change(const char *dir, const report_frame *f, double *change)
+int report_restorer_change(const char *dir, const report_frame *f, double *change)
 {
     *change = -1;
     if (!f->images[IMAGE_RESTORED]) return 0;
@@ -57,7 +56,7 @@ int report_pick_frames(const char *dir, const report_run *run, int picked[2], co
                 v = f->score[MODEL_RESTORED].psnr - f->score[MODEL_SPARSE].psnr;
             else if (pass == 1 && f->score[MODEL_SPARSE].present) v = f->score[MODEL_SPARSE].psnr;
             else if (pass == 2) {
-                if (restorer_change(dir, f, &v) != 0) return -1;
+                if (report_restorer_change(dir, f, &v) != 0) return -1;
                 if (v < 0) continue;
                 v = -v; /* "worst" here is the largest change: listed first, as the others */
             } else continue;
@@ -135,14 +134,15 @@ int report_strip(report_text *t, const char *dir, const report_run *run, int ind
     }
     static const char *const titles[N_IMAGES] = {"sparse render", "restored", "refined render", "ground truth"};
     static const char *const kinds[N_IMAGES] = {"render", "restored", "refined", "ground-truth"};
-    text_printf(t, "<figure class=\"strip\" data-frame=\"%d\"><figcaption>%s: frame %d</figcaption>\n<div class=\"row\">\n",
-                f->frame, label, f->frame);
+    text_printf(t, "<figure class=\"strip\" data-frame=\"%d\"><figcaption>%s: ", f->frame, label);
+    text_escaped(t, f->name);
+    text_printf(t, " (frame %d)</figcaption>\n<div class=\"row\">\n", f->frame);
     for (int k = 0; k < N_IMAGES && rc == 0; k++) {
         if (!img[k].pixels) continue;
-        char caption[160], alt[96];
+        char caption[160], alt[128];
         if (k < N_MODELS) score_caption(caption, sizeof caption, titles[k], &f->score[k]);
         else snprintf(caption, sizeof caption, "%s", titles[k]);
-        snprintf(alt, sizeof alt, "%s, frame %d", titles[k], f->frame);
+        snprintf(alt, sizeof alt, "%s, %.60s", titles[k], f->name);
         rc = cell(t, kinds[k], &img[k], caption, alt);
     }
     text_append(t, "</div>\n<div class=\"row\">\n");

@@ -7,6 +7,7 @@
 #include "gaussvid/core.h"
 #include "gaussvid/report.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -27,6 +28,18 @@ static void where(FILE *out, const char *label, const char *dir, const char *rel
     char path[8192];
     if (gv_path_join(path, sizeof path, dir, rel) != 0) return;
     fprintf(out, "  %-12s %s%s\n", label, path, gv_file_exists(path) ? "" : "  (not written)");
+}
+
+void report_consistency_line(const report_run *run, char *out, size_t size)
+{
+    out[0] = 0;
+    if (!run->has_consistency) return;
+    char v[N_MODELS][32];
+    for (int k = 0; k < N_MODELS; k++)
+        if (isnan(run->consistency[k])) snprintf(v[k], sizeof v[k], "-");
+        else snprintf(v[k], sizeof v[k], "%.2f", run->consistency[k]);
+    snprintf(out, size, "3D consistency (each frame warped into its neighbours by the model's depth, masked PSNR): "
+             "sparse %s, restored %s, refined %s dB", v[0], v[1], v[2]);
 }
 
 static void run_summary(FILE *out, const char *dir, const report_run *run)
@@ -58,6 +71,9 @@ static void run_summary(FILE *out, const char *dir, const report_run *run)
                     run->all_held_out[MODEL_SPARSE].frames, run->all_held_out[MODEL_SPARSE].psnr,
                     run->all_held_out[MODEL_REFINED].psnr);
     }
+    char line[256];
+    report_consistency_line(run, line, sizeof line);
+    if (line[0]) fprintf(out, "  %s\n", line);
     char rel[64];
     snprintf(rel, sizeof rel, "n%d/viewer.html", run->interval);
     where(out, "viewer", dir, rel);

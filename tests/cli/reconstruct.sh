@@ -104,6 +104,7 @@ if [ $HAVE_FFMPEG = 1 ]; then
     # the summary at the end: the means of metrics.json, in words, and where the files are
     has "n = 6, 20 held-out frames between the training views:"
     has "against the sparse renders the restored frames are"
+    has "3D consistency (each frame warped into its neighbours by the model's depth, masked PSNR): sparse"
     has "  report       R/report.html"
     has "  viewer       R/n6/viewer.html"
     has "  video        R/n6/flythrough.mp4"
@@ -114,8 +115,11 @@ text = open('all_out').read()
 for label, kind in (('sparse 3DGS', 'sparse'), ('restored', 'restored'), ('refined 3DGS', 'refined')):
     m = re.search(r'^  %s +([0-9.]+) +([0-9.]+)\$' % label, text, re.M)
     assert m and m.group(1) == '%.2f' % means[kind]['psnr'] and m.group(2) == '%.4f' % means[kind]['ssim'], (label, m)"
-    check "the video is 20 frames of 192x48" test "$(ffprobe -v error -count_frames -select_streams v:0 \
-        -show_entries stream=nb_read_frames,width,height -of csv=p=0 R/n6/flythrough.mp4)" = "192,48,20"
+    # a fly-through of 8 frames per gap through the 5 training views (4 x 8 + 1), then the 20 held-out frames
+    check "the video is 33 + 20 frames of 192x48" test "$(ffprobe -v error -count_frames -select_streams v:0 \
+        -show_entries stream=nb_read_frames,width,height -of csv=p=0 R/n6/flythrough.mp4)" = "192,48,53"
+    has "a fly-through of 33 frames through the 5 training views (sparse | refined | nearest photo), then the 20 held-out frames"
+    check "the report lists the worst frames by name" grep -q '<table class="worst">' R/report.html
 fi
 
 # metrics.json against an independent recomputation.
@@ -130,6 +134,9 @@ run = doc["runs"][0]
 assert run["interval"] == 6 and run["path"] == "held-out" and run["train_frames"] == [0, 6, 12, 18, 24], "plan"
 frames = [f["frame"] for f in run["frames"]]
 assert frames == [i for i in range(1, 24) if i % 6], "frames %s" % frames
+# named after the photos: the scene's image names (frame_%05d.png for a synthesised scene)
+assert all(f["name"] == "frame_%05d.png" % f["frame"] and f["images"]["render"] == "n6/frames/render/frame_%05d.png" % f["frame"]
+           for f in run["frames"]), "names"
 assert run["gaussians"]["sparse"] > 0 and run["gaussians"]["refined"] == run["gaussians"]["sparse"], "counts"
 sums = {"sparse": [0, 0], "restored": [0, 0], "refined": [0, 0]}
 for f in run["frames"]:
@@ -204,20 +211,78 @@ refined() { python3 -c "import json; print(json.load(open('$1'))['runs'][0]['mea
 check "ground truth fed back beats the renders fed back by 1 dB" \
     python3 -c "import sys; sys.exit(not $(refined O/metrics.json) > $(refined I/metrics.json) + 1)"
 
+# 3D consistency: metrics.json's means are `metrics consistency`'s; restored frames that are the
+# renders themselves are exactly as consistent as the renders; bad folders give one line.
+expect 0 "consistency" -- "$G" metrics consistency R --json --threads 2
+cp "$T/out" consistency.json
+check "one summary line per run on stderr" test "$(grep -c '^n=6 consistency' "$T/err")" -eq 1
+check "consistency: metrics.json's means, pairs per frame" python3 -c "
+import json, math
+c = json.load(open('consistency.json'))['runs'][0]; r = json.load(open('R/metrics.json'))['runs'][0]
+assert c['interval'] == 6 and c['frames'] == 20
+for k in ('sparse', 'restored', 'refined'):
+    s = c[k]
+    assert s['pairs'] == 38 and len(s['per_pair']) == 38 and 0 < s['scored'] <= 38, k
+    assert abs(s['psnr'] - r['consistency'][k]['psnr']) < 1e-9, (k, s['psnr'], r['consistency'][k])
+    scored = [p['psnr'] for p in s['per_pair'] if p['psnr'] is not None]
+    assert len(scored) == s['scored'] and abs(sum(scored) / len(scored) - s['psnr']) < 1e-9, k
+    assert all(0 < p['psnr'] <= 100 and 0 < p['coverage'] <= 1 for p in s['per_pair'] if p['psnr'] is not None), k
+first = c['sparse']['per_pair'][:2]
+assert [(p['from'], p['to']) for p in first] == [(1, 2), (2, 1)], first
+assert c['sparse']['depth'] == c['restored']['depth'] == 'sparse.ply' and c['refined']['depth'] == 'refined.ply'"
+expect 0 "consistency of renders as restored" -- "$G" metrics consistency I --threads 2
+has "n=6 consistency"
+check "restored = renders: the same consistency" python3 -c "
+import json; c = json.load(open('I/metrics.json'))['runs'][0]['consistency']
+assert c['restored']['psnr'] == c['sparse']['psnr'], c"
+expect 1 "consistency: not a reconstruct folder" -- "$G" metrics consistency S
+one_line "no metrics.json"
+cp -r I I2
+rm I2/n6/frames/refined/frame_00009.png
+expect 1 "consistency: a missing frame" -- "$G" metrics consistency I2
+one_line "frame_00009.png"
+python3 -c "
+import json; d = json.load(open('I/metrics.json')); d['runs'][0]['frames'].pop()
+json.dump(d, open('I2/metrics.json', 'w'))"
+expect 1 "consistency: frames that are not the plan's" -- "$G" metrics consistency I2
+one_line "lists 19 frames but the scene's plan has 20"
+
+# Photos named as a phone names them: the frames, metrics.json, the video and the report name
+# them so (S's images renamed IMG_0001.JPG ..., PNG inside: images are read by signature).
+cp -r S PH
+for f in PH/images/frame_0*.png; do b=$(basename "$f" .png); mv "$f" "PH/images/IMG_${b#frame_0}.JPG"; done
+sed -i -E 's/frame_0([0-9]{4})\.png/IMG_\1.JPG/g' PH/transforms.json PH/sparse/0/images.txt
+expect 0 "photo names" -- "$G" reconstruct "${RC[@]}" --scene PH --refine-iters 5 --out PHR --stop-after $LAST
+exists PHR/n6/frames/render/IMG_0001.png
+exists PHR/n6/frames/restored/IMG_0023.png
+check "metrics.json names the photos" python3 -c "
+import json; r = json.load(open('PHR/metrics.json'))['runs'][0]
+assert [f['name'] for f in r['frames']][:2] == ['IMG_0001.JPG', 'IMG_0002.JPG'], r['frames'][0]
+assert r['frames'][0]['images']['refined'] == 'n6/frames/refined/IMG_0001.png'
+assert r['frames'][0]['images']['ground_truth'].endswith('/PH/images/IMG_0001.JPG')"
+expect 0 "photo names: consistency" -- "$G" metrics consistency PHR --threads 2
+has "n=6 consistency"
+if [ $HAVE_FFMPEG = 1 ]; then
+    check "the report names the worst frames after the photos" grep -q '<tr data-frame="[0-9]*"><td>IMG_00[0-9][0-9].JPG</td>' PHR/report.html
+fi
+
 # n = 1 on 6 frames: every view trains; 5 clips restore a path of 15 frames without ground truth.
 expect 0 "synth 6" -- "$G" scene synth --seed 4 --frames 6 --size 64x48 --samples 1 --out P --quiet
 expect 0 "smooth path" -- "$G" reconstruct "${RC[@]}" --scene P --interval 1 --out PR --stop-after $LAST
 check "P was not in the restorer's training set: no warning" test "$(grep -c "was in the restorer's training set" "$T/err")" -eq 0
 check "15 path frames restored" test "$(ls PR/n1/frames/restored | wc -l)" -eq 15
-exists PR/n1/frames/refined/frame_00019.png
+exists PR/n1/frames/refined/frame_00004_to_frame_00005_3of4.png  # path frame 19, named after the photos around it
 check "path metrics" python3 -c "
 import json; r = json.load(open('PR/metrics.json'))['runs'][0]
 assert r['path'] == 'smooth' and r['means'] is None and r['all_held_out'] is None
 assert [f['frame'] for f in r['frames']] == [4 * k + j for k in range(5) for j in (1, 2, 3)]
-assert all(f['images']['ground_truth'] is None and f['sparse'] is None for f in r['frames'])"
+assert all(f['images']['ground_truth'] is None and f['sparse'] is None for f in r['frames'])
+assert r['frames'][0]['name'] == 'frame_00000_to_frame_00001_1of4', r['frames'][0]
+assert r['frames'][0]['images']['restored'] == 'n1/frames/restored/frame_00000_to_frame_00001_1of4.png'"
 if [ $HAVE_FFMPEG = 1 ]; then
-    check "the path video is render | restored" test "$(ffprobe -v error -select_streams v:0 \
-        -show_entries stream=width,height -of csv=p=0 PR/n1/flythrough.mp4)" = "128,48"
+    check "the path video is 5 x 8 + 1 fly-through and 15 path frames, render | restored" test "$(ffprobe -v error \
+        -count_frames -select_streams v:0 -show_entries stream=nb_read_frames,width,height -of csv=p=0 \
+        PR/n1/flythrough.mp4)" = "128,48,56"
     check "P's report names the training scenes without a warning" \
         test "$(grep -c "was in the restorer's training set" PR/report.html)" -eq 0 -a "$(grep -c "<th>trained on</th><td>S<" PR/report.html)" -eq 1
 fi
