@@ -39,9 +39,8 @@ typedef struct {
     char summary[512];           /* the stage's one-line summary, set by the stage */
 } pipeline_run;
 
-/* plan.c: whether interval n can be planned on the scene (n = 1 or n >= 4, two training views). */
-int pipeline_check_interval(const gv_scene *scene, int n);
-/* The training views, the evaluated frames and the clips of interval n. */
+/* plan.c: the training views, the evaluated frames and the clips of interval n; fails unless
+ * gv_interval_check(n, scene frames, GV_INTERVAL_RECONSTRUCT). */
 int pipeline_plan(pipeline_run *r, const gv_scene *scene, int n);
 void pipeline_plan_free(pipeline_run *r);
 /* DIR/nN/<what>/frame_%05d.png of an evaluated frame (what: render, restored, refined). */

@@ -91,7 +91,8 @@ static int check_options(const gv_reconstruct_options *o, const gv_scene *scene,
         return gv_fail("--refine-weight %g: expected a weight in (0, 1]", o->refine_weight);
     if (!(o->fps > 0) || o->fps > 240) return gv_fail("--fps %g: expected 0 < fps <= 240", o->fps);
     for (int k = 0; k < o->n_intervals; k++)
-        if (pipeline_check_interval(scene, o->intervals[k])) return -1;
+        if (gv_interval_check(o->intervals[k], scene->n_frames, GV_INTERVAL_RECONSTRUCT))
+            return gv_fail_context("%s: --interval", scene->dir);
     if (!gv_file_exists(o->ckpt)) return gv_fail("%s: no such checkpoint", o->ckpt);
     gv_model_config cfg;
     gv_train_state state;
