@@ -6,6 +6,10 @@
 
 #include "gaussvid/safetensors.h"
 
+/* gv_st_open of a file already open as fd (read-only), which it closes whatever happens:
+ * whoever looked at the first bytes (weights_open.c) does not open the file twice. */
+int gv_st_open_fd(gv_st_file *f, const char *path, int fd);
+
 /* Parses and checks the header JSON `text` (n bytes, text[n] == '\0') of f->path, whose data
  * region holds f->data_size bytes; fills f's tensors (sorted by offset, data pointers unset),
  * name index and metadata. On failure records one message; gv_st_close frees what was set. */

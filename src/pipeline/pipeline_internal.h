@@ -68,7 +68,7 @@ int pipeline_video(pipeline_run *r);
 int pipeline_find_ffmpeg(const gv_reconstruct_options *o, char *out, size_t size);
 
 /* metrics_doc.c: DIR/metrics.json. */
-int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, cJSON **doc);
+int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, const gv_restorer *rec, cJSON **doc);
 /* This interval's run object: the existing one when its inputs are this run's (else a line
  * saying what differs), or a new one listing the plan's frames. */
 int pipeline_doc_run(pipeline_run *r);
@@ -83,7 +83,7 @@ int pipeline_stage_record(pipeline_run *r, const char *name, const char *keys, d
 /* Drops the records of the stage and of every stage after it. */
 void pipeline_stage_forget(pipeline_run *r, const char *name);
 /* The restorer object of metrics.json for a checkpoint (adapt: the scene checkpoint of --adapt). */
-cJSON *pipeline_restorer_json(const char *ckpt, int adapt);
+cJSON *pipeline_restorer_json(const char *ckpt, const gv_restorer *r, int adapt);
 /* doc-building helpers */
 cJSON *pipeline_metric_json(double psnr, double ssim, double lpips, int has_lpips);
 

@@ -134,6 +134,20 @@ expect 0 "restore, gate open" -- "$G" restore --ckpt open.safetensors --clips R 
 has "gate open"
 has "the renders are restored"
 check "open gate: the network restores" files_differ "${clips[0]}" "restored/$(basename "${clips[0]}")"
+# One load (issue 40): the restore opens each weight file once: the scene checkpoint, its base
+# (checksummed through that open) and the VAE the base names. Counted with strace when present.
+if command -v strace >/dev/null && strace -f -e trace=openat -o /dev/null true 2>/dev/null; then
+    strace -f -e trace=openat,open -o opens.log "$G" restore --ckpt open.safetensors --clips R --out once --quiet \
+        >/dev/null 2>&1
+    check "restore under strace" cmp -s "restored/$(basename "${clips[0]}" .safetensors)/f2.png" \
+        "once/$(basename "${clips[0]}" .safetensors)/f2.png"
+    for w in open.safetensors base.safetensors vae.safetensors; do
+        n=$(grep -v ENOENT opens.log | grep -cE "(\"|/)$w\"")
+        check "restore opens $w once (opened $n times)" test "$n" -eq 1
+    done
+else
+    echo "skipped: no working strace to count the opens"
+fi
 expect 0 "restore one clip, gate closed" -- "$G" restore --ckpt closed.safetensors --clip "${clips[1]}" --out one --quiet
 has "left unchanged"
 # The gate's composition (unseen by default; its pairs carry coverage planes): recorded, and
