@@ -125,16 +125,7 @@ int gv_st_open_fd(gv_st_file *f, const char *path, int fd)
 
 const gv_st_tensor *gv_st_find(const gv_st_file *f, const char *name)
 {
-    int lo = 0, hi = f->n_tensors - 1;
-    while (lo <= hi) {
-        int mid = lo + (hi - lo) / 2;
-        const gv_st_tensor *t = &f->tensors[f->by_name[mid]];
-        int c = strcmp(name, t->name);
-        if (c == 0) return t;
-        if (c < 0) hi = mid - 1;
-        else lo = mid + 1;
-    }
-    return NULL;
+    return gv_names_find(f->tensors, sizeof *f->tensors, f->by_name, f->n_tensors, gv_st_tensor_name, name);
 }
 
 const char *gv_st_metadata(const gv_st_file *f, const char *key)

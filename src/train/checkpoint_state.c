@@ -12,18 +12,11 @@
 /* The parts the file's tensors cover: every tensor of m, or only those fine-tuning trains. */
 static const char *parts_text(const gv_dit *m, int adapters_only, char *out, size_t size)
 {
-    static const char *const names[] = {"dit", "vace", "vae", "camera", "lora"};
     unsigned parts = 0;
     for (int i = 0; i < m->params.n; i++)
         if (!adapters_only || gv_dit_param_is_adapter(m, m->params.items[i]->t.name))
             parts |= gv_dit_param_part(m, m->params.items[i]->t.name);
-    out[0] = '\0';
-    for (int i = 0; i < 5; i++)
-        if (parts & (1u << i)) {
-            size_t len = strlen(out);
-            snprintf(out + len, size - len, "%s%s", len ? "," : "", names[i]);
-        }
-    return out;
+    return gv_parts_text(parts, out, size);
 }
 
 static int add_tensor(gv_st_builder *b, const char *prefix, const gv_tensor *t, const float *data)
