@@ -132,13 +132,14 @@ static void check_refused(void)
     make_scene(&s, 25, cams);
     pipeline_run r;
     memset(&r, 0, sizeof r);
-    CHECK_FAILS_WITH(pipeline_plan(&r, &s, 3), "n must be 1");
+    CHECK_FAILS_WITH(pipeline_plan(&r, &s, 3), "interval 3: reconstruct takes n = 1 or 4 <= n <= 24 on this scene");
     pipeline_plan_free(&r);
-    CHECK_FAILS_WITH(pipeline_plan(&r, &s, 2), "at least 4");
+    CHECK_FAILS_WITH(pipeline_plan(&r, &s, 2), "n = 1 or 4 <= n <= 24");
     pipeline_plan_free(&r);
-    CHECK_FAILS_WITH(pipeline_plan(&r, &s, 25), "fewer than two training views");
+    CHECK_FAILS_WITH(pipeline_plan(&r, &s, 25), "interval 25 leaves 1 training frame of the scene's 25 frames");
     pipeline_plan_free(&r);
-    CHECK(pipeline_check_interval(&s, 24) == 0);
+    CHECK(pipeline_plan(&r, &s, 24) == 0 && r.n_train == 2);
+    pipeline_plan_free(&r);
 }
 
 int main(void)

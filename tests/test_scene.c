@@ -26,8 +26,8 @@ static void test_split(void)
         else ok = 0;
     }
     CHECK(ok);
-    CHECK_FAILS_WITH(gv_scene_split(10, 10, train, &nt, held, &nh), "interval 10 leaves 1 training frame of the scene's 10 frames");
-    CHECK_FAILS_WITH(gv_scene_split(10, 0, train, &nt, held, &nh), "interval 0: must be at least 1");
+    CHECK_FAILS_WITH(gv_scene_split(10, 10, train, &nt, held, &nh), "interval 10 leaves 1 training frame of the scene's 10 frames (frames 0, n, 2n, ...); at least 2 are needed: a split takes 1 <= n <= 9 on this scene");
+    CHECK_FAILS_WITH(gv_scene_split(10, 0, train, &nt, held, &nh), "interval 0: a split takes 1 <= n <= 9 on this scene");
     CHECK_FAILS_WITH(gv_scene_split(1, 1, train, &nt, held, &nh), "the scene has 1 frame(s)");
 }
 

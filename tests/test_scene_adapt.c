@@ -139,6 +139,20 @@ static void test_scene_checkpoint(const char *tmp)
     CHECK(gv_restorer_load(scene_path, &r) == 0);
     CHECK(max_diff(&r.net, &base, 0) == 0 && max_diff(&r.net, &tuned, 1) == 0 && max_diff(&base, &tuned, 1) > 0);
     CHECK(!strcmp(r.state.kind, "scene") && !strcmp(r.vae_path, vae_path));
+    /* ... with what callers need: the record, the base as found and its checksum (streamed
+     * through the one open of the base) equal to the file's, the base's training scenes */
+    CHECK(r.loaded && r.scene && !strcmp(r.adaptation.scene, "room") && r.adaptation.interval == 16);
+    CHECK(!r.adaptation.gate_open && !strcmp(r.base_path, base_path) && !strcmp(r.base_checksum, a.base_checksum));
+    CHECK(r.scenes_known == 0 && !r.training_scenes[0]); /* the base records none */
+    gv_restorer_free(&r);
+    /* the record alone, or the network only when the gate opens (it is closed): no weights */
+    CHECK(gv_restorer_open(scene_path, GV_RESTORER_RECORD, &r) == 0 && !r.loaded && r.scene);
+    CHECK(!strcmp(r.base_checksum, a.base_checksum) && r.net.params.n == 0);
+    gv_restorer_free(&r);
+    CHECK(gv_restorer_open(scene_path, GV_RESTORER_NETWORK_IF_GATE_OPEN, &r) == 0 && !r.loaded && r.scene);
+    gv_restorer_free(&r);
+    CHECK(gv_restorer_open(base_path, GV_RESTORER_NETWORK_IF_GATE_OPEN, &r) == 0 && r.loaded && !r.scene);
+    CHECK(max_diff(&r.net, &base, 0) == 0);
     gv_restorer_free(&r);
 
     /* both moved elsewhere: the base is found beside the scene checkpoint */
@@ -153,6 +167,10 @@ static void test_scene_checkpoint(const char *tmp)
     snprintf(base_path, sizeof base_path, "%s/base.safetensors", moved);
     CHECK(gv_checkpoint_save(base_path, &tuned, &tuned.cfg, &st, 0) == 0);
     CHECK_FAILS_WITH(gv_restorer_load(scene_path, &r), "is not the base its adapters were trained on");
+    /* the record stands without its base; what the base would tell is unknown, and says why */
+    CHECK(gv_restorer_open(scene_path, GV_RESTORER_RECORD, &r) == 0 && r.scenes_known == -1);
+    CHECK_FAILS_WITH(gv_warn_if_trained_on(&r, scene_path, "room"), "is not the base its adapters were trained on");
+    gv_restorer_free(&r);
     CHECK(remove(base_path) == 0);
     CHECK_FAILS_WITH(gv_restorer_load(scene_path, &r), "is not found");
 

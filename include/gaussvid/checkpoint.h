@@ -8,6 +8,7 @@
 
 #include <stdint.h>
 
+#include "gaussvid/dataset.h"
 #include "gaussvid/dit.h"
 #include "gaussvid/model_config.h"
 #include "gaussvid/vae.h"
@@ -50,19 +51,71 @@ typedef struct {
 } gv_train_state;
 
 /* ---- for inference ------------------------------------------------------------------------ */
-/* A trained restorer as one open and one parse of its checkpoint give it. */
+/* What a scene checkpoint records besides the adapters and the training state. */
+typedef struct {
+    char scene[GV_SCENE_NAME_MAX];  /* the scene's name (its folder name) */
+    int interval;                   /* n: the checkpoint restores this scene's renders at n */
+    int iters;                      /* the artifact simulator's iterations for the internal pairs */
+    int subsets;                    /* the subsets K of the internal pairs (0 in checkpoints from
+                                       before the choice: 2) */
+    char base_checksum[48];         /* "fnv1a64:<16 hex>" of the base file's bytes */
+    int train_clips, held_back;     /* internal clips trained on / held back for validation */
+    long best_step;                 /* the step kept (0: the base's adapters unchanged) */
+    char best_by[32];               /* what chose it: "latent gain" or "PSNR change" ("" in
+                                       checkpoints from before the choice existed: latent gain) */
+    double val_gain_db;             /* that held-back gain at that step, in dB */
+    double val_loss, val_identity;
+    int gate_open;                  /* 1: restore; 0: leave the renders unchanged */
+    double gate_margin_db;          /* the gate opens when the PSNR change exceeds this */
+    int gate_min_frames;            /* ... and at least this many held-back frames measured it */
+    int gate_frames;                /* held-back frames with ground truth that were restored */
+    double gate_psnr_base, gate_psnr_restored, gate_ssim_base, gate_ssim_restored;
+    char gate_sampler[256];         /* the sampler and composition the gate restored with */
+    char gate_compose[16];          /* that composition's name (restore.h); "" in checkpoints from
+                                       before it was recorded, which all used "residual" */
+    /* The do-no-harm test (internal_pairs.h): the same held-back views' clips rendered by the
+     * model of every training view, whose nearly clean middle frame a restorer that overshoots
+     * makes worse. harm_frames 0: not measured (a checkpoint from before it existed). */
+    double harm_max_loss_db;        /* the gate opens only when their PSNR drops by less than this */
+    int harm_frames;
+    double harm_psnr_base, harm_psnr_restored, harm_ssim_base, harm_ssim_restored;
+    double seconds_pairs, seconds_latents, seconds_train, seconds_gate;
+} gv_scene_adaptation;
+
+/* What gv_restorer_open reads beyond the records: the network and the VAE always, only when a
+ * scene checkpoint's gate is open (a closed gate leaves the renders as they are), or never. */
+typedef enum { GV_RESTORER_NETWORK, GV_RESTORER_NETWORK_IF_GATE_OPEN, GV_RESTORER_RECORD } gv_restorer_part;
+
+/* A trained restorer as one open of its checkpoint (and of a scene checkpoint's base, and of
+ * the VAE file it names) gives it: what every caller needs, so that nobody reopens the file. */
 typedef struct {
     gv_model_config cfg;
     gv_train_state state;
+    int loaded;                    /* 1: net and vae hold the weights */
     gv_dit net;                    /* frozen */
     gv_vae vae;
     char vae_path[4200];           /* the VAE file metadata "vae" names, else the checkpoint */
+    int scene;                     /* 1: a scene checkpoint (kind "scene"); then: */
+    gv_scene_adaptation adaptation;/*   its record and gate */
+    char base_path[4200];          /*   the base it applies to, as found */
+    char base_checksum[48];        /*   that file's checksum, equal to the record's */
+    int scenes_known;              /* 1: training_scenes lists the scenes the network (a scene
+                                      checkpoint: its base) trained on; 0: not recorded; -1:
+                                      the record beside it is unreadable, scenes_error says why */
+    char training_scenes[GV_CHECKPOINT_SCENES];
+    char scenes_error[512];
 } gv_restorer;
 /* Loads a checkpoint: its config and training state, the network (built by gv_dit_init from
  * that config, every tensor read from the file; a base's LoRA adapters, absent from the file,
  * stay at their zero start) and the VAE: its tensors in the file, or else the file named by
- * metadata "vae" (gv_checkpoint_vae_path), checked against "vae_checksum". */
+ * metadata "vae" (gv_checkpoint_vae_path), checked against "vae_checksum". A scene checkpoint
+ * (scene_adapt.h) loads its base first (found as written, else beside it; its checksum
+ * streamed from the one open of the file must be the record's), then its adapters over it;
+ * r->cfg and r->state are then the scene checkpoint's. Also fills the training scenes. Each
+ * file is opened once. */
 int gv_restorer_load(const char *path, gv_restorer *r);
+/* The same with a choice of what to read (what = GV_RESTORER_NETWORK is gv_restorer_load). */
+int gv_restorer_open(const char *path, gv_restorer_part what, gv_restorer *r);
 void gv_restorer_free(gv_restorer *r);
 /* Reads only the config and the training state of a checkpoint. */
 int gv_checkpoint_read_info(const char *path, gv_model_config *cfg, gv_train_state *state);
@@ -102,14 +155,10 @@ int gv_train_record_scenes(gv_train_state *meta, const char *clips_dir, const ch
 int gv_train_add_scenes(gv_train_state *meta, const char *list);
 /* 1 when the comma-separated list holds name. */
 int gv_scene_list_has(const char *list, const char *name);
-/* The training scenes a checkpoint records into out (a scene checkpoint: its base's); 1 when
- * it records them, 0 when it does not, -1 when the file (or a scene checkpoint's base) cannot
- * be read. */
-int gv_checkpoint_training_scenes(const char *ckpt, char *out, size_t size);
-/* One line on stderr when ckpt records scene among its training scenes: "warning: scene 'X'
- * was in the restorer's training set (...): its numbers do not measure generalisation".
- * -1 when the checkpoint cannot be read. */
-int gv_warn_if_trained_on(const char *ckpt, const char *scene);
+/* One line on stderr when the restorer (loaded from ckpt, gv_restorer_open) records scene
+ * among its training scenes: "warning: scene 'X' was in the restorer's training set (...): its
+ * numbers do not measure generalisation". -1 when its record could not be read. */
+int gv_warn_if_trained_on(const gv_restorer *r, const char *ckpt, const char *scene);
 
 /* ---- the prompt's text context (text_context.c) --------------------------------------------
  * The DiT's cross-attention context of a prompt, [text_len, text_dim], computed by the umT5

@@ -57,6 +57,17 @@ void gv_progress_finish(gv_progress *p);
  * side by side, whose bars would overwrite one another. */
 void gv_progress_mute_thread(int muted);
 
+/* ---- Names (names.c): items found by their name ----------------------------------------
+ * name_of(items, i) is the name of item i. An order lists the items' positions sorted by name;
+ * with order NULL the items themselves are in that order. */
+typedef const char *(*gv_name_of)(const void *items, int i);
+/* Fills order[0..n) with the positions of the n items sorted by name; *repeat is a name that
+ * appears twice (the caller says what that means), else NULL. Fails only on no memory. */
+int gv_names_order(const void *items, int n, gv_name_of name_of, int *order, const char **repeat);
+/* The item named name (bisection over the order; items are size bytes apart), or NULL. */
+const void *gv_names_find(const void *items, size_t size, const int *order, int n, gv_name_of name_of,
+                          const char *name);
+
 /* ---- Files -------------------------------------------------------------------------- */
 /* Reads a whole file; *data is NUL-terminated and must be freed. */
 int gv_read_file(const char *path, char **data, size_t *size);

@@ -51,7 +51,7 @@ const char *gv_sampling_name(gv_clip_sampling sampling);
 /* Parses a sampling name; fails naming it. */
 int gv_sampling_from_name(const char *name, gv_clip_sampling *out);
 /* Checks that a scene of n_frames frames has at least one clip at interval n and anchor gap
- * g: n >= 2, g >= 1, g * n <= n_frames - 1 and g * (n - 1) >= 3 held-out frames between the
+ * g: gv_interval_check(n, 0, GV_INTERVAL_CLIPS) (n >= 2), g >= 1, g * n <= n_frames - 1 and g * (n - 1) >= 3 held-out frames between the
  * anchors. Fails with a message naming the numbers. */
 int gv_clip_check_interval(int n_frames, int interval, int anchor_gap);
 /* Number of anchor pairs (s, s + g n) with s a multiple of n and s + g n < n_frames. */
@@ -66,10 +66,6 @@ int gv_clip_frames(int n_frames, int interval, int anchor_gap, gv_clip_sampling 
  * clip per anchor pair, stop at the number of pairs. frames holds k rows. */
 int gv_sample_clips(int n_frames, int interval, int anchor_gap, gv_clip_sampling sampling,
                     int k, uint64_t seed, int (*frames)[GV_CLIP_FRAMES], int *n_clips);
-/* Parses intervals: comma-separated items, each "n", "a:b" (a to b inclusive, step 1) or
- * "a:b:s" (step s; "6:26:2" is the paper's 6, 8, ..., 26). Sorted, duplicates removed;
- * every n in 2..100000. */
-int gv_parse_intervals(const char *text, int *intervals, int max, int *count);
 
 /* ---- clip.c: one clip = one safetensors file -------------------------------------------
  * Tensors: inputs U8 [5, H, W, 3] (anchor ground truth, 3 corrupted renders, anchor ground

@@ -76,6 +76,13 @@ uint16_t gv_f32_to_bf16(float x);
 /* Maps and checks a file: header length, JSON, dtypes, shapes, offsets (contiguous, no
  * overlap, no hole, covering the data exactly), unique names, string metadata. */
 int gv_st_open(gv_st_file *f, const char *path);
+/* Hands every byte of an open file, in order, to each(ctx, bytes, n) in pieces of at most
+ * GV_ST_STREAM_PIECE bytes read through its mapping; each piece's pages are released after it
+ * (the resident memory stays one piece whatever the file's size). Stops at the first nonzero
+ * return of each and returns it. Fails for a file another reader presents (a shard index, a
+ * PyTorch zip). */
+#define GV_ST_STREAM_PIECE (16u << 20)
+int gv_st_stream(const gv_st_file *f, int (*each)(void *ctx, const void *bytes, size_t n), void *ctx);
 /* Unmaps and frees; safe on a zeroed or failed handle. */
 void gv_st_close(gv_st_file *f);
 /* The tensor of that name, or NULL (no message) when there is none. */

@@ -20,36 +20,8 @@
 
 #define GV_SCENE_CHECKPOINT_KIND "scene"
 
-/* What a scene checkpoint records besides the adapters and the training state. */
-typedef struct {
-    char scene[GV_SCENE_NAME_MAX];  /* the scene's name (its folder name) */
-    int interval;                   /* n: the checkpoint restores this scene's renders at n */
-    int iters;                      /* the artifact simulator's iterations for the internal pairs */
-    int subsets;                    /* the subsets K of the internal pairs (0 in checkpoints from
-                                       before the choice: 2) */
-    char base_checksum[48];         /* "fnv1a64:<16 hex>" of the base file's bytes */
-    int train_clips, held_back;     /* internal clips trained on / held back for validation */
-    long best_step;                 /* the step kept (0: the base's adapters unchanged) */
-    char best_by[32];               /* what chose it: "latent gain" or "PSNR change" ("" in
-                                       checkpoints from before the choice existed: latent gain) */
-    double val_gain_db;             /* that held-back gain at that step, in dB */
-    double val_loss, val_identity;
-    int gate_open;                  /* 1: restore; 0: leave the renders unchanged */
-    double gate_margin_db;          /* the gate opens when the PSNR change exceeds this */
-    int gate_min_frames;            /* ... and at least this many held-back frames measured it */
-    int gate_frames;                /* held-back frames with ground truth that were restored */
-    double gate_psnr_base, gate_psnr_restored, gate_ssim_base, gate_ssim_restored;
-    char gate_sampler[256];         /* the sampler and composition the gate restored with */
-    char gate_compose[16];          /* that composition's name (restore.h); "" in checkpoints from
-                                       before it was recorded, which all used "residual" */
-    /* The do-no-harm test (internal_pairs.h): the same held-back views' clips rendered by the
-     * model of every training view, whose nearly clean middle frame a restorer that overshoots
-     * makes worse. harm_frames 0: not measured (a checkpoint from before it existed). */
-    double harm_max_loss_db;        /* the gate opens only when their PSNR drops by less than this */
-    int harm_frames;
-    double harm_psnr_base, harm_psnr_restored, harm_ssim_base, harm_ssim_restored;
-    double seconds_pairs, seconds_latents, seconds_train, seconds_gate;
-} gv_scene_adaptation;
+/* gv_scene_adaptation, the record a scene checkpoint holds besides its adapters and training
+ * state, is in checkpoint.h: a loaded restorer carries it. */
 
 /* PSNR change the gate measured (restored - base) on the held-back pairs, and on their
  * do-no-harm clips. */
@@ -71,14 +43,7 @@ int gv_scene_checkpoint_save(const char *path, const gv_dit *m, const gv_model_c
 int gv_scene_checkpoint_read(const char *path, gv_scene_adaptation *a);
 /* 1 when path is a gaussvid checkpoint of kind "scene" (0 for other kinds; -1 unreadable). */
 int gv_scene_checkpoint_is(const char *path);
-/* Loads the base it names into r with gv_restorer_load (network, VAE and its vae_path), checked
- * by checksum, then its adapters over it; r->cfg and r->state are the scene checkpoint's. */
-int gv_scene_checkpoint_load(const char *path, gv_restorer *r);
-/* The base file a scene checkpoint names: as written, else the same relative path or file name
- * beside the scene checkpoint; its checksum must match. */
-int gv_scene_checkpoint_base(const char *path, const gv_train_state *state, const gv_scene_adaptation *a, char *out,
-                             size_t size);
-/* "fnv1a64:<16 hex>" of a file's bytes. */
+/* "fnv1a64:<16 hex>" of a file's bytes, read a megabyte at a time. */
 int gv_file_checksum(const char *path, char *out, size_t size);
 
 /* The adapters alone, for a training run's best step: save (with extra metadata key/value

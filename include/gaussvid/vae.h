@@ -98,6 +98,8 @@ int gv_vae_check_layout(const gv_model_config *c, int *n_tensors, int64_t *n_par
  * listed. Latent statistics in the file's metadata ("latent_mean", "latent_std": JSON
  * arrays) replace the config's. */
 int gv_vae_load(gv_vae *v, const char *path, int allow_other);
+/* The same from a file already open (a checkpoint that holds its VAE's tensors). */
+int gv_vae_read(gv_vae *v, const gv_st_file *f, int allow_other);
 /* Writes every tensor (F32) and the metadata: "config" (the model config JSON, latent
  * statistics included when known), "latent_mean"/"latent_std" when known, and the extra
  * key/value pairs (n_extra, may be 0). Atomic. */

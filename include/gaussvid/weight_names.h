@@ -78,6 +78,9 @@ const gv_weight_spec *gv_weight_list_find(const gv_weight_list *l, const char *n
 const char *gv_module_name(gv_module m);
 /* The part (GV_PART_*) a module belongs to. */
 unsigned gv_module_part(gv_module m);
+/* The parts of the mask as the comma-separated list gv_parts_parse reads ("dit,vace,camera"),
+ * in bit order, into out; returns out (checkpoint metadata "parts"). */
+const char *gv_parts_text(unsigned parts, char *out, size_t size);
 /* Parses a comma-separated list of parts (dit, vace, vae, camera, lora, base, adapters,
  * all) into a mask; `source` names the flag or file in the message. */
 int gv_parts_parse(const char *text, unsigned *mask, const char *source);

@@ -50,7 +50,7 @@ int cmd_adapt(int argc, char **argv)
     int steps = (int)o.train.steps, val_every = (int)o.train.val_every, stop_after = 0, seed = 0;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (COLMAP sparse/0 or transforms.json)", 1},
-        {"interval", GV_FLAG_INT, &o.interval, "N", "its training views are frames 0, N, 2N, ...: the renders to restore are of this n", 1},
+        {"interval", GV_FLAG_INT, &o.interval, "N", "its training views are frames 0, N, 2N, ...: the renders to restore are of this n (n >= 2)", 1},
         {"base", GV_FLAG_STRING, &o.base, "FILE", "the cross-scene checkpoint to adapt (e.g. models/gaussvid-small.safetensors)", 1},
         {"out", GV_FLAG_STRING, &o.out, "FILE", "the scene checkpoint (adapters and gate); FILE.work keeps the work", 1},
         {"work", GV_FLAG_STRING, &o.work_dir, "DIR", "the work folder (default FILE.work): internal pairs, latents, resumable training", 0},
@@ -107,12 +107,16 @@ int cmd_adapt(int argc, char **argv)
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
-    if (steps < 1 || o.train.batch < 1 || val_every < 1 || stop_after < 0 || seed < 0 || o.interval < 2 ||
+    if (steps < 1 || o.train.batch < 1 || val_every < 1 || stop_after < 0 || seed < 0 ||
         o.iters < 1 || o.subsets < 2 || o.hold_every < 2 || o.gate_min_frames < 1 || !(o.train.lr > 0) || !(o.train.t_max > 0 && o.train.t_max <= 1) ||
         !(o.harm_max_loss_db >= 0)) {
-        fprintf(stderr, "gaussvid adapt: --interval needs n >= 2, --subsets and --hold-every K >= 2; --steps, --batch, --iters, "
+        fprintf(stderr, "gaussvid adapt: --subsets and --hold-every K >= 2; --steps, --batch, --iters, "
                         "--val-every, --gate-min-frames and --lr must be positive, --t-max in (0, 1], --seed, --stop-after and "
                         "--harm-max-loss not negative\n");
+        return 2;
+    }
+    if (gv_interval_check(o.interval, 0, GV_INTERVAL_CLIPS)) {
+        fprintf(stderr, "gaussvid adapt: --interval: %s\n", gv_last_error());
         return 2;
     }
     if (gv_lr_kind_from_name(schedule, &o.train.lr_schedule) ||

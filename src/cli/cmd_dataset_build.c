@@ -1,11 +1,18 @@
 /* gaussvid dataset build --scenes DIR... --out DIR: artifact simulation and clip sampling for
  * every scene and interval (paper section 3.2; docs/FORMATS-DATASET.md). Resumable. */
 #include <stdio.h>
+#include <stdlib.h>
 
 #include "cli/commands.h"
 #include "gaussvid/core.h"
 #include "gaussvid/dataset.h"
 #include "gaussvid/splat_train.h"
+
+static int compare_ints(const void *a, const void *b)
+{
+    int x = *(const int *)a, y = *(const int *)b;
+    return (x > y) - (x < y);
+}
 
 static int usage(const char *message)
 {
@@ -23,7 +30,7 @@ int cmd_dataset_build(int argc, char **argv)
     const gv_flag flags[] = {
         {"scenes", GV_FLAG_LIST, &scenes, "DIR...", "scene folders: the folders after it, comma-separated, the flag repeated", 1},
         {"out", GV_FLAG_STRING, &out, "DIR", "the dataset folder (created; an existing one is resumed)", 1},
-        {"intervals", GV_FLAG_STRING, &intervals_text, "A:B:S", "intervals n: \"a:b:s\", \"a:b\", \"n\", comma-separated (default 6:26:2)", 0},
+        {"intervals", GV_FLAG_STRING, &intervals_text, "A:B:S", "intervals n >= 2: \"a:b:s\", \"a:b\", \"n\", comma-separated, each n once (default 6:26:2)", 0},
         {"iters", GV_FLAG_INT, &p.iters, "N", "3DGS iterations, the early stop (default 8000, the paper's)", 0},
         {"densify", GV_FLAG_STRING, &densify, "MODE", "3DGS density control: reference (default, the paper's), lean or mcmc", 0},
         {"clips-per-run", GV_FLAG_INT, &p.clips_per_run, "K", "clips per (scene, n) (default 4)", 0},
@@ -51,13 +58,14 @@ int cmd_dataset_build(int argc, char **argv)
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
     int intervals[GV_MAX_INTERVALS], n_intervals;
-    int bad = gv_parse_intervals(intervals_text, intervals, GV_MAX_INTERVALS, &n_intervals) != 0 ||
+    int bad = gv_interval_parse(intervals_text, GV_INTERVAL_CLIPS, intervals, GV_MAX_INTERVALS, &n_intervals) != 0 ||
               gv_sampling_from_name(sampling, &p.sampling) != 0;
     if (!bad && densify && (p.densify = gv_splat_densify_mode_parse(densify)) < 0)
         bad = gv_fail("--densify %s: expected " GV_DENSIFY_MODE_NAMES, densify) != 0;
     if (!bad && seed < 0) bad = gv_fail("--seed %d: must be non-negative", seed) != 0;
     if (!bad && (jobs < 1 || jobs > 256)) bad = gv_fail("--jobs %d: must be in 1..256", jobs) != 0;
     if (bad) return usage(gv_last_error());
+    qsort(intervals, (size_t)n_intervals, sizeof *intervals, compare_ints); /* runs by increasing n */
     p.seed = (uint64_t)seed;
 
     gv_dataset_build_options o = {scenes.items, scenes.n, intervals, n_intervals, eval.items, eval.n, p, out, NULL,

@@ -51,7 +51,7 @@ int cmd_eval(int argc, char **argv)
 
     gv_restore_session s = {0}; /* ended below even when the input check fails before start */
     int rc = gv_restore_cli_check_input(clips, NULL) || gv_restore_cli_start(&c, &o, &s) ||
-                     gv_restore_cli_warn_seen(c.ckpt, clips, NULL, &o)
+                     gv_restore_cli_warn_seen(&s.r, c.ckpt, clips, NULL, &o)
                  ? -1
                  : 0;
     s.table.release_metric = !strcmp(metric, "release");

@@ -13,26 +13,6 @@
 
 #define DEFAULT_CKPT "models/gaussvid-small.safetensors"
 
-/* "16" or "6,16,26": every n >= 1, at most GV_RECONSTRUCT_MAX_INTERVALS, no repeats. */
-static int parse_intervals(const char *text, gv_reconstruct_options *o)
-{
-    const char *p = text;
-    o->n_intervals = 0;
-    while (*p) {
-        char *end;
-        long n = strtol(p, &end, 10);
-        if (end == p || n < 1 || n > 100000 || (*end && *end != ','))
-            return gv_fail("--interval %s: expected n[,n...] with every n in 1..100000", text);
-        for (int i = 0; i < o->n_intervals; i++)
-            if (o->intervals[i] == n) return gv_fail("--interval %s: %ld is listed twice", text, n);
-        if (o->n_intervals == GV_RECONSTRUCT_MAX_INTERVALS)
-            return gv_fail("--interval %s: at most %d intervals", text, GV_RECONSTRUCT_MAX_INTERVALS);
-        o->intervals[o->n_intervals++] = (int)n;
-        p = *end ? end + 1 : end;
-    }
-    return o->n_intervals ? 0 : gv_fail("--interval: empty");
-}
-
 static void print_stage(void *ctx, int n, const char *stage, const char *summary, double seconds, double cpu)
 {
     printf("n=%d %s: %s (%.1f s, %.1f s CPU)\n", n, stage, summary, seconds, cpu);
@@ -48,7 +28,7 @@ int cmd_reconstruct(int argc, char **argv)
     int seed = 0, adapt_steps = (int)o.adapt_options.train.steps;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (images/ with sparse/0 or transforms.json; gaussvid scene colmap makes one from photos)", 1},
-        {"interval", GV_FLAG_STRING, &intervals, "N[,N...]", "sparse views: frames 0, N, 2N, ... train, the held-out frames between them are restored (N >= 4); N = 1: every view trains and a smooth path between them is restored", 1},
+        {"interval", GV_FLAG_STRING, &intervals, "N[,N...|A:B:S]", "sparse views: frames 0, N, 2N, ... train, the held-out frames between them are restored (N >= 4); N = 1: every view trains and a smooth path between them is restored; a list or a range a:b:s runs each", 1},
         {"out", GV_FLAG_STRING, &o.out_dir, "DIR", "where everything goes: metrics.json and nN/ per interval (docs/RECONSTRUCT.md)", 1},
         {"ckpt", GV_FLAG_STRING, &o.ckpt, "FILE", "the restorer (default " DEFAULT_CKPT ")", 0},
         {"iters", GV_FLAG_INT, &o.iters, "N", "sparse 3DGS iterations (default 8000)", 0},
@@ -80,7 +60,7 @@ int cmd_reconstruct(int argc, char **argv)
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
-    if (parse_intervals(intervals, &o) || (seed < 0 && gv_fail("--seed %d: must not be negative", seed) != 0) ||
+    if (gv_interval_parse(intervals, GV_INTERVAL_RECONSTRUCT, o.intervals, GV_RECONSTRUCT_MAX_INTERVALS, &o.n_intervals) || (seed < 0 && gv_fail("--seed %d: must not be negative", seed) != 0) ||
         (adapt_steps < 1 && gv_fail("--adapt-steps %d: must be positive", adapt_steps) != 0) ||
         (densify && (o.densify = gv_splat_densify_mode_parse(densify)) < 0 &&
          gv_fail("--densify %s: expected " GV_DENSIFY_MODE_NAMES, densify) != 0) ||

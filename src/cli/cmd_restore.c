@@ -68,14 +68,15 @@ int gv_restore_cli_check_input(const char *clips_dir, const char *clip_file)
     return rc;
 }
 
-int gv_restore_cli_warn_seen(const char *ckpt, const char *clips_dir, const char *clip_file, const gv_restore_options *o)
+int gv_restore_cli_warn_seen(const gv_restorer *r, const char *ckpt, const char *clips_dir, const char *clip_file,
+                             const gv_restore_options *o)
 {
     if (clip_file) {
         gv_clip_info info;
         if (gv_clip_read_info(clip_file, &info)) return -1;
         if ((o->scene && strcmp(info.id.scene, o->scene)) || (o->interval && info.id.n != o->interval))
             return 0; /* a clip outside a scene checkpoint's scope: refused next, not restored */
-        return gv_warn_if_trained_on(ckpt, info.id.scene);
+        return gv_warn_if_trained_on(r, ckpt, info.id.scene);
     }
     gv_manifest m;
     if (gv_manifest_read_dataset(clips_dir, &m)) return -1;
@@ -88,7 +89,7 @@ int gv_restore_cli_warn_seen(const char *ckpt, const char *clips_dir, const char
             continue;
         size_t len = strlen(seen);
         if (len + strlen(id->scene) + 2 < sizeof seen) snprintf(seen + len, sizeof seen - len, ",%s", id->scene);
-        rc = gv_warn_if_trained_on(ckpt, id->scene);
+        rc = gv_warn_if_trained_on(r, ckpt, id->scene);
     }
     gv_manifest_free(&m);
     return rc;
@@ -130,10 +131,8 @@ int gv_restore_cli_gate(const char *ckpt, int compose_given, gv_restore_options 
 {
     line[0] = '\0';
     s->gate = NULL;
-    int is = gv_scene_checkpoint_is(ckpt);
-    gv_scene_adaptation a;
-    if (is <= 0) return is;
-    if (gv_scene_checkpoint_read(ckpt, &a)) return -1;
+    if (!s->r.scene) return 0;
+    const gv_scene_adaptation a = s->r.adaptation;
     /* adapters fitted to one scene at one sparsity restore only that scene's renders at it */
     if ((o->scene && strcmp(o->scene, a.scene)) || (o->interval && o->interval != a.interval))
         return gv_fail("%s: adapted to %s at n = %d, not to %s at n = %d", ckpt, a.scene, a.interval,
@@ -191,7 +190,7 @@ int cmd_restore(int argc, char **argv)
     o.out_dir = out, o.save_clips = save_clips;
     gv_restore_session s = {0}; /* ended below even when the input check fails before start */
     int rc = gv_restore_cli_check_input(clips, clip) || gv_restore_cli_start(&c, &o, &s) ||
-                     gv_restore_cli_warn_seen(c.ckpt, clips, clip, &o) ? -1 : gv_mkdirs(out);
+                     gv_restore_cli_warn_seen(&s.r, c.ckpt, clips, clip, &o) ? -1 : gv_mkdirs(out);
     if (rc == 0) {
         const char *paths[1] = {clip};
         rc = clip ? gv_restore_files(&s.r, paths, 1, &o) : gv_restore_dataset(&s.r, clips, &o);

@@ -29,7 +29,7 @@ typedef struct {
     const char *gate;
     char scene[GV_SCENE_NAME_MAX];
 } gv_restore_session;
-/* A scene checkpoint's gate and scope (scene_adapt.h): sets o->keep_renders when the gate is
+/* A scene checkpoint's gate and scope (scene_adapt.h), from the record s->r was loaded with: sets o->keep_renders when the gate is
  * closed, restricts o to the scene and interval it was adapted to (failing when --scene or
  * --interval asked for others), sets o->compose to the composition the gate measured (failing
  * when compose_given named another) and writes the line that says what happens into line
@@ -46,8 +46,10 @@ void gv_restore_cli_end(gv_restore_session *s);
  * bad input is refused before the checkpoint is loaded. */
 int gv_restore_cli_check_input(const char *clips_dir, const char *clip_file);
 /* One warning line for each scene among the clips o selects (of the dataset clips_dir, or the
- * one clip_file) that the checkpoint records among its training scenes (checkpoint.h). */
-int gv_restore_cli_warn_seen(const char *ckpt, const char *clips_dir, const char *clip_file, const gv_restore_options *o);
+ * one clip_file) that the restorer r, loaded from ckpt, records among its training scenes
+ * (checkpoint.h). */
+int gv_restore_cli_warn_seen(const gv_restorer *r, const char *ckpt, const char *clips_dir, const char *clip_file,
+                             const gv_restore_options *o);
 /* Prints "usage error" as the commands do and returns 2. */
 int gv_restore_cli_usage(const char *command, const char *message);
 

@@ -91,6 +91,8 @@ static void print_text(const gv_scene *s, const scene_summary *sum)
            sum->n_train, sum->n_held_out);
     for (int i = 0; i < sum->n_train; i++) printf(" %d", sum->train[i]);
     printf("\nextent      %.6g (training frames)\n", sum->train_extent);
+    if (gv_interval_check(sum->interval, s->n_frames, GV_INTERVAL_RECONSTRUCT)) /* a split reconstruct refuses */
+        printf("note        %s\n", gv_last_error());
 }
 
 /* A number, or a [min, max] pair when the frames differ. */
@@ -143,7 +145,9 @@ static int run(const char *dir, int interval, int downscale, int json)
     scene_summary sum = {.interval = interval};
     if (gv_scene_load(dir, &opt, &s) != 0) return -1;
     int ok = 0;
-    if (interval) { /* before the images: a split that cannot work fails at once */
+    if (interval && s.n_frames >= 2 && interval > s.n_frames - 1) /* the advice: what reconstruct takes here */
+        ok = gv_interval_check(interval, s.n_frames, GV_INTERVAL_RECONSTRUCT) ? gv_fail_context("%s", dir) : 0;
+    if (ok == 0 && interval) { /* before the images: a split that cannot work fails at once */
         sum.train = malloc((size_t)s.n_frames * sizeof(int));
         sum.held_out = malloc((size_t)s.n_frames * sizeof(int));
         if (!sum.train || !sum.held_out) ok = gv_fail("%s: out of memory", dir);
@@ -176,14 +180,15 @@ int cmd_scene_info(int argc, char **argv)
         "Loads sparse/0 (binary, else text) or transforms.json, opens every frame's image and\n"
         "checks its size against its camera, then prints the source, frame count, image size,\n"
         "intrinsics, point count and scene extent (3DGS getNerfppNorm), and with --interval\n"
-        "the training frames and the held-out count. The first problem is reported as one line\n"
+        "the training frames and the held-out count (with a note when reconstruct would refuse\n"
+        "that n; it takes n = 1 or n >= 4). The first problem is reported as one line\n"
         "(exit code 1). The folder format is described in docs/SCENES.md.",
         flags, 3, 1, 1};
     char *positional[1];
     int n_positional = 0;
     int parsed = gv_args_parse(&spec, argc, argv, positional, &n_positional);
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
-    const char *bad = interval != -1 && interval < 1          ? "--interval must be at least 1"
+    const char *bad = interval != -1 && gv_interval_check(interval, 0, GV_INTERVAL_SPLIT) ? gv_last_error()
                       : downscale < 1 || downscale > 64 ? "--downscale must be in 1..64"
                                                         : NULL;
     if (bad) {

@@ -12,7 +12,7 @@ int gv_internal_views(int n_frames, int interval)
 
 int gv_internal_check(int n_frames, int interval)
 {
-    if (interval < 2) return gv_fail("interval %d: scene-internal pairs need n >= 2", interval);
+    if (gv_interval_check(interval, 0, GV_INTERVAL_CLIPS)) return -1;
     int views = gv_internal_views(n_frames, interval);
     if (views < GV_INTERNAL_MIN_VIEWS)
         return gv_fail("%d frames give %d training views at n = %d (frames 0, %d, ...); scene-internal pairs "

@@ -28,7 +28,7 @@ int gv_sampling_from_name(const char *name, gv_clip_sampling *out)
 
 int gv_clip_check_interval(int n_frames, int interval, int anchor_gap)
 {
-    if (interval < 2) return gv_fail("interval %d: must be at least 2", interval);
+    if (gv_interval_check(interval, 0, GV_INTERVAL_CLIPS)) return -1;
     if (anchor_gap < 1) return gv_fail("anchor gap %d: must be at least 1", anchor_gap);
     long gap = (long)anchor_gap * interval;
     if (gap > n_frames - 1)
@@ -197,54 +197,5 @@ int gv_sample_clips(int n_frames, int interval, int anchor_gap, gv_clip_sampling
     free(order);
     qsort(frames, (size_t)count, sizeof frames[0], compare_clips);
     *n_clips = count;
-    return 0;
-}
-
-/* Reads a positive integer at *p, advancing it. */
-static int parse_count(const char **p, const char *text, long *out)
-{
-    char *end;
-    if (**p < '0' || **p > '9') return gv_fail("intervals '%s': expected a number at '%s'", text, *p);
-    *out = strtol(*p, &end, 10);
-    *p = end;
-    return 0;
-}
-
-static int compare_ints(const void *a, const void *b)
-{
-    int x = *(const int *)a, y = *(const int *)b;
-    return (x > y) - (x < y);
-}
-
-int gv_parse_intervals(const char *text, int *intervals, int max, int *count)
-{
-    *count = 0;
-    const char *p = text;
-    int n = 0;
-    for (;;) {
-        long v[3] = {0, 0, 1};
-        int parts = 0;
-        do {
-            if (parts == 3) return gv_fail("intervals '%s': an item has more than 3 parts (a:b:s)", text);
-            if (parts > 0) p++; /* the ':' */
-            if (parse_count(&p, text, &v[parts++]) != 0) return -1;
-        } while (*p == ':');
-        if (*p && *p != ',') return gv_fail("intervals '%s': unexpected '%c'", text, *p);
-        if (parts == 1) v[1] = v[0];
-        if (v[0] < 2 || v[1] > 100000 || v[0] > v[1] || v[2] < 1)
-            return gv_fail("intervals '%s': need 2 <= a <= b <= 100000 and a step of at least 1",
-                           text);
-        for (long x = v[0]; x <= v[1]; x += v[2]) {
-            if (n == max) return gv_fail("intervals '%s': more than %d values", text, max);
-            intervals[n++] = (int)x;
-        }
-        if (!*p) break;
-        p++; /* the ',' */
-    }
-    qsort(intervals, (size_t)n, sizeof *intervals, compare_ints);
-    int unique = 0;
-    for (int i = 0; i < n; i++)
-        if (unique == 0 || intervals[unique - 1] != intervals[i]) intervals[unique++] = intervals[i];
-    *count = unique;
     return 0;
 }

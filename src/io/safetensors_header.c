@@ -263,33 +263,19 @@ static int check_layout(const gv_st_file *f)
     return 0;
 }
 
-typedef struct {
-    const char *name;
-    int index;
-} name_index;
-
-static int by_name(const void *a, const void *b)
+const char *gv_st_tensor_name(const void *tensors, int i)
 {
-    return strcmp(((const name_index *)a)->name, ((const name_index *)b)->name);
+    return ((const gv_st_tensor *)tensors)[i].name;
 }
 
 int gv_st_build_name_index(gv_st_file *f)
 {
-    name_index *pairs = malloc(((size_t)f->n_tensors + 1) * sizeof *pairs);
+    const char *repeat;
     f->by_name = malloc(((size_t)f->n_tensors + 1) * sizeof *f->by_name);
-    if (!pairs || !f->by_name) { free(pairs); return gv_fail("%s: out of memory", f->path); }
-    for (int i = 0; i < f->n_tensors; i++) pairs[i] = (name_index){f->tensors[i].name, i};
-    qsort(pairs, (size_t)f->n_tensors, sizeof *pairs, by_name);
-    for (int i = 0; i < f->n_tensors; i++) {
-        if (i && !strcmp(pairs[i].name, pairs[i - 1].name)) {
-            gv_fail("%s: tensor name '%s' appears twice", f->path, pairs[i].name);
-            free(pairs);
-            return -1;
-        }
-        f->by_name[i] = pairs[i].index;
-    }
-    free(pairs);
-    return 0;
+    if (!f->by_name) return gv_fail("%s: out of memory", f->path);
+    if (gv_names_order(f->tensors, f->n_tensors, gv_st_tensor_name, f->by_name, &repeat))
+        return gv_fail_context("%s", f->path);
+    return repeat ? gv_fail("%s: tensor name '%s' appears twice", f->path, repeat) : 0;
 }
 
 static int parse_entries(gv_st_file *f, const cJSON *root, size_t n)

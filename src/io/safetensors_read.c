@@ -58,14 +58,36 @@ static int map_file(gv_st_file *f, int fd)
     return 0;
 }
 
+int gv_st_stream(const gv_st_file *f, int (*each)(void *ctx, const void *bytes, size_t n), void *ctx)
+{
+    if (!f->map || f->owner) return gv_fail("%s: not a single mapped safetensors file", f->path);
+    for (uint64_t at = 0; at < f->file_size; at += GV_ST_STREAM_PIECE) {
+        size_t n = f->file_size - at < GV_ST_STREAM_PIECE ? (size_t)(f->file_size - at) : GV_ST_STREAM_PIECE;
+        int rc = each(ctx, f->map + at, n);
+        /* the map's start is page-aligned and so is every piece's: the pages read return to
+         * the file, to be read again if a tensor is wanted later */
+        madvise((void *)(f->map + at), n, MADV_DONTNEED);
+        if (rc) return rc;
+    }
+    return 0;
+}
+
 int gv_st_open(gv_st_file *f, const char *path)
 {
-    memset(f, 0, sizeof *f);
-    if (!(f->path = strdup(path))) return gv_fail("%s: out of memory", path);
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     if (fd < 0) {
-        gv_fail("%s: cannot open: %s", path, strerror(errno));
-        return open_failed(f, -1);
+        memset(f, 0, sizeof *f);
+        return gv_fail("%s: cannot open: %s", path, strerror(errno));
+    }
+    return gv_st_open_fd(f, path, fd);
+}
+
+int gv_st_open_fd(gv_st_file *f, const char *path, int fd)
+{
+    memset(f, 0, sizeof *f);
+    if (!(f->path = strdup(path))) {
+        close(fd);
+        return gv_fail("%s: out of memory", path);
     }
     if (map_file(f, fd)) return open_failed(f, fd);
     close(fd);
@@ -103,16 +125,7 @@ int gv_st_open(gv_st_file *f, const char *path)
 
 const gv_st_tensor *gv_st_find(const gv_st_file *f, const char *name)
 {
-    int lo = 0, hi = f->n_tensors - 1;
-    while (lo <= hi) {
-        int mid = lo + (hi - lo) / 2;
-        const gv_st_tensor *t = &f->tensors[f->by_name[mid]];
-        int c = strcmp(name, t->name);
-        if (c == 0) return t;
-        if (c < 0) hi = mid - 1;
-        else lo = mid + 1;
-    }
-    return NULL;
+    return gv_names_find(f->tensors, sizeof *f->tensors, f->by_name, f->n_tensors, gv_st_tensor_name, name);
 }
 
 const char *gv_st_metadata(const gv_st_file *f, const char *key)

@@ -127,9 +127,29 @@ static int read_entry(gv_zip *z, uint64_t *p, uint64_t end, gv_zip_entry *e, cha
     return 0;
 }
 
-static int by_name(const void *a, const void *b)
+static const char *entry_name(const void *entries, int i)
 {
-    return strcmp(((const gv_zip_entry *)a)->name, ((const gv_zip_entry *)b)->name);
+    return ((const gv_zip_entry *)entries)[i].name;
+}
+
+const gv_zip_entry *gv_zip_find(const gv_zip *z, const char *name)
+{
+    return gv_names_find(z->entries, sizeof *z->entries, NULL, z->n, entry_name, name);
+}
+
+/* Puts the entries in name order (the order gv_zip_find bisects); fails on a name twice. */
+static int sort_entries(gv_zip *z)
+{
+    const char *repeat;
+    int *order = malloc(((size_t)z->n + 1) * sizeof *order);
+    gv_zip_entry *sorted = malloc(((size_t)z->n + 1) * sizeof *sorted);
+    int rc = !order || !sorted ? gv_fail("%s: out of memory for %d zip entries", z->path, z->n)
+                               : gv_names_order(z->entries, z->n, entry_name, order, &repeat);
+    if (rc == 0 && repeat) rc = gv_fail("%s: zip entry '%s' appears twice", z->path, repeat);
+    for (int i = 0; rc == 0 && i < z->n; i++) sorted[i] = z->entries[order[i]];
+    if (rc == 0) memcpy(z->entries, sorted, (size_t)z->n * sizeof *sorted);
+    free(order), free(sorted);
+    return rc;
 }
 
 int gv_zip_open(gv_zip *z, const char *path, const uint8_t *data, uint64_t size)
@@ -159,13 +179,10 @@ int gv_zip_open(gv_zip *z, const char *path, const uint8_t *data, uint64_t size)
         }
         z->n++;
     }
-    qsort(z->entries, (size_t)z->n, sizeof *z->entries, by_name);
-    for (int i = 1; i < z->n; i++)
-        if (!strcmp(z->entries[i].name, z->entries[i - 1].name)) {
-            gv_fail("%s: zip entry '%s' appears twice", path, z->entries[i].name);
-            gv_zip_close(z);
-            return -1;
-        }
+    if (sort_entries(z)) {
+        gv_zip_close(z);
+        return -1;
+    }
     return 0;
 }
 
@@ -174,12 +191,6 @@ void gv_zip_close(gv_zip *z)
     free(z->entries);
     free(z->names);
     memset(z, 0, sizeof *z);
-}
-
-const gv_zip_entry *gv_zip_find(const gv_zip *z, const char *name)
-{
-    gv_zip_entry key = {.name = name};
-    return z->n ? bsearch(&key, z->entries, (size_t)z->n, sizeof key, by_name) : NULL;
 }
 
 /* zlib's crc32 takes uInt lengths: fed in pieces. */

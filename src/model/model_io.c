@@ -134,18 +134,6 @@ int gv_dit_load(gv_dit *m, const char *const *paths, int n_paths, unsigned parts
     return rc;
 }
 
-static const char *parts_text(unsigned parts, char *out, size_t size)
-{
-    static const char *const names[] = {"dit", "vace", "vae", "camera", "lora"};
-    out[0] = '\0';
-    for (int i = 0; i < 5; i++)
-        if (parts & (1u << i)) {
-            size_t len = strlen(out);
-            snprintf(out + len, size - len, "%s%s", len ? "," : "", names[i]);
-        }
-    return out;
-}
-
 int gv_dit_save(const gv_dit *m, const char *path, unsigned parts)
 {
     if (m->lora_merged && (parts & GV_PART_LORA) && m->cfg.lora.rank > 0)
@@ -169,7 +157,7 @@ int gv_dit_save(const gv_dit *m, const char *path, unsigned parts)
     if (rc == 0 && !json) rc = gv_fail("%s: out of memory for the config", path);
     if (rc == 0) rc = gv_st_add_metadata(&b, "format", "gaussvid-dit");
     if (rc == 0) rc = gv_st_add_metadata(&b, "config", json);
-    if (rc == 0) rc = gv_st_add_metadata(&b, "parts", parts_text(parts, list, sizeof list));
+    if (rc == 0) rc = gv_st_add_metadata(&b, "parts", gv_parts_text(parts, list, sizeof list));
     if (rc == 0) rc = gv_st_write(&b, path);
     free(json);
     gv_st_builder_free(&b);

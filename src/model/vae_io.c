@@ -68,11 +68,19 @@ int gv_vae_load(gv_vae *v, const char *path, int allow_other)
 {
     gv_st_file f;
     if (gv_weights_open(&f, path)) return -1;
+    int rc = gv_vae_read(v, &f, allow_other);
+    gv_st_close(&f);
+    return rc;
+}
+
+int gv_vae_read(gv_vae *v, const gv_st_file *f, int allow_other)
+{
+    const char *path = f->path;
     problem_list missing = {0, ""}, unexpected = {0, ""}, shaped = {0, ""};
     char have[64], want[64];
     for (int i = 0; i < v->params.n; i++) {
         const gv_tensor *x = &v->params.items[i]->t;
-        const gv_st_tensor *t = gv_st_find(&f, x->name);
+        const gv_st_tensor *t = gv_st_find(f, x->name);
         if (!t) {
             note(&missing, "%s%s%s", x->name, "");
         } else if (!same_shape(t, x)) {
@@ -80,25 +88,23 @@ int gv_vae_load(gv_vae *v, const char *path, int allow_other)
             note(&shaped, "%s%s is %s", x->name, have);
         }
     }
-    for (int i = 0; !allow_other && i < f.n_tensors; i++)
-        if (!gv_params_find(&v->params, f.tensors[i].name)) note(&unexpected, "%s%s%s", f.tensors[i].name, "");
+    for (int i = 0; !allow_other && i < f->n_tensors; i++)
+        if (!gv_params_find(&v->params, f->tensors[i].name)) note(&unexpected, "%s%s%s", f->tensors[i].name, "");
     if (missing.n || unexpected.n || shaped.n) {
         gv_fail("%s: not the weights of this VAE: %d missing%s%s%s, %d unexpected%s%s%s, %d mis-shaped%s%s%s", path,
                 missing.n, missing.n ? " (" : "", missing.text, missing.n ? (missing.n > LISTED ? ", ...)" : ")") : "",
                 unexpected.n, unexpected.n ? " (" : "", unexpected.text,
                 unexpected.n ? (unexpected.n > LISTED ? ", ...)" : ")") : "", shaped.n, shaped.n ? " (" : "", shaped.text,
                 shaped.n ? (shaped.n > LISTED ? ", ...)" : ")") : "");
-        gv_st_close(&f);
         return -1;
     }
     int rc = 0;
     for (int i = 0; i < v->params.n && rc == 0; i++) {
         gv_tensor *x = &v->params.items[i]->t;
-        rc = gv_st_tensor_to_f32(&f, gv_st_find(&f, x->name), x->data);
+        rc = gv_st_tensor_to_f32(f, gv_st_find(f, x->name), x->data);
     }
-    if (rc == 0) rc = load_stats(v, &f);
+    if (rc == 0) rc = load_stats(v, f);
     if (rc == 0 && gv_params_check_finite(&v->params, 0)) rc = gv_fail_context("%s", path);
-    gv_st_close(&f);
     return rc;
 }
 

@@ -236,28 +236,18 @@ static int add_lora(gv_weight_list *l, const gv_model_config *c)
     return 0;
 }
 
-static int by_spec_name(const void *a, const void *b)
+static const char *spec_name(const void *items, int i)
 {
-    return strcmp((*(const gv_weight_spec *const *)a)->name, (*(const gv_weight_spec *const *)b)->name);
+    return ((const gv_weight_spec *)items)[i].name;
 }
 
 static int index_names(gv_weight_list *l)
 {
-    const gv_weight_spec **order = malloc(((size_t)l->n + 1) * sizeof *order);
+    const char *repeat;
     l->by_name = malloc(((size_t)l->n + 1) * sizeof *l->by_name);
-    if (!order || !l->by_name) {
-        free(order);
-        return gv_fail("out of memory for the weight list index");
-    }
-    for (int i = 0; i < l->n; i++) order[i] = &l->items[i];
-    qsort(order, (size_t)l->n, sizeof *order, by_spec_name);
-    int rc = 0;
-    for (int i = 0; i < l->n; i++) {
-        l->by_name[i] = (int)(order[i] - l->items);
-        if (i > 0 && !strcmp(order[i]->name, order[i - 1]->name)) rc = gv_fail("%s: tensor named twice", order[i]->name);
-    }
-    free(order);
-    return rc;
+    if (!l->by_name) return gv_fail("out of memory for the weight list index");
+    if (gv_names_order(l->items, l->n, spec_name, l->by_name, &repeat)) return -1;
+    return repeat ? gv_fail("%s: tensor named twice", repeat) : 0;
 }
 
 int gv_weight_list_build(gv_weight_list *l, const gv_model_config *c)
@@ -283,16 +273,7 @@ void gv_weight_list_free(gv_weight_list *l)
 
 const gv_weight_spec *gv_weight_list_find(const gv_weight_list *l, const char *name)
 {
-    int lo = 0, hi = l->n - 1;
-    while (lo <= hi) {
-        int mid = lo + (hi - lo) / 2;
-        const gv_weight_spec *w = &l->items[l->by_name[mid]];
-        int cmp = strcmp(name, w->name);
-        if (cmp == 0) return w;
-        if (cmp < 0) hi = mid - 1;
-        else lo = mid + 1;
-    }
-    return NULL;
+    return gv_names_find(l->items, sizeof *l->items, l->by_name, l->n, spec_name, name);
 }
 
 void gv_weight_list_count(const gv_weight_list *l, gv_weight_counts *out)
@@ -306,6 +287,18 @@ void gv_weight_list_count(const gv_weight_list *l, gv_weight_counts *out)
         if (w->trainable) out->trainable += w->numel;
     }
     out->n_tensors = l->n;
+}
+
+const char *gv_parts_text(unsigned parts, char *out, size_t size)
+{
+    static const char *const names[] = {"dit", "vace", "vae", "camera", "lora"}; /* bit i: 1 << i */
+    out[0] = '\0';
+    for (int i = 0; i < 5; i++)
+        if (parts & (1u << i)) {
+            size_t len = strlen(out);
+            snprintf(out + len, size - len, "%s%s", len ? "," : "", names[i]);
+        }
+    return out;
 }
 
 int gv_parts_parse(const char *text, unsigned *mask, const char *source)

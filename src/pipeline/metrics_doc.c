@@ -21,17 +21,14 @@ static int metrics_path(const gv_reconstruct_options *o, char *out, size_t size)
 /* The restorer as the document names it: the checkpoint, "scene" or "cross-scene", a scene
  * checkpoint's gate ("open" / "closed"; null otherwise) and the scenes it was trained on (a
  * scene checkpoint: its base's; null when the checkpoint does not record them). */
-cJSON *pipeline_restorer_json(const char *ckpt, int adapt)
+cJSON *pipeline_restorer_json(const char *ckpt, const gv_restorer *r, int adapt)
 {
     cJSON *j = cJSON_CreateObject();
-    gv_scene_adaptation a;
-    int scene = gv_scene_checkpoint_is(ckpt) == 1 && gv_scene_checkpoint_read(ckpt, &a) == 0;
     cJSON_AddStringToObject(j, "checkpoint", ckpt);
-    cJSON_AddStringToObject(j, "kind", scene || adapt ? "scene" : "cross-scene");
-    if (scene) cJSON_AddStringToObject(j, "gate", a.gate_open ? "open" : "closed");
+    cJSON_AddStringToObject(j, "kind", r->scene || adapt ? "scene" : "cross-scene");
+    if (r->scene) cJSON_AddStringToObject(j, "gate", r->adaptation.gate_open ? "open" : "closed");
     else cJSON_AddNullToObject(j, "gate");
-    char scenes[GV_CHECKPOINT_SCENES];
-    if (gv_checkpoint_training_scenes(ckpt, scenes, sizeof scenes) == 1) cJSON_AddStringToObject(j, "training_scenes", scenes);
+    if (r->scenes_known == 1) cJSON_AddStringToObject(j, "training_scenes", r->training_scenes);
     else cJSON_AddNullToObject(j, "training_scenes"); /* unknown, or unreadable: the stages say why */
     return j;
 }
@@ -70,7 +67,7 @@ static cJSON *read_doc(const char *path, const char *scene_dir)
     return doc;
 }
 
-int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, cJSON **out)
+int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, const gv_restorer *rec, cJSON **out)
 {
     char path[4096], abs[PATH_MAX], name[GV_SCENE_NAME_MAX];
     *out = NULL;
@@ -89,7 +86,7 @@ int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, cJ
         cJSON_AddItemToObject(doc, "runs", cJSON_CreateArray());
     }
     cJSON_DeleteItemFromObject(doc, "restorer");
-    cJSON_AddItemToObject(doc, "restorer", pipeline_restorer_json(o->ckpt, o->adapt));
+    cJSON_AddItemToObject(doc, "restorer", pipeline_restorer_json(o->ckpt, rec, o->adapt));
     *out = doc;
     return 0;
 }

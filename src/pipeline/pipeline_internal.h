@@ -44,9 +44,8 @@ typedef struct {
     char summary[512];           /* the stage's one-line summary, set by the stage */
 } pipeline_run;
 
-/* plan.c: whether interval n can be planned on the scene (n = 1 or n >= 4, two training views). */
-int pipeline_check_interval(const gv_scene *scene, int n);
-/* The training views, the evaluated frames and the clips of interval n. */
+/* plan.c: the training views, the evaluated frames and the clips of interval n; fails unless
+ * gv_interval_check(n, scene frames, GV_INTERVAL_RECONSTRUCT). */
 int pipeline_plan(pipeline_run *r, const gv_scene *scene, int n);
 void pipeline_plan_free(pipeline_run *r);
 /* DIR/nN/frames/<what>/<name>.png of the evaluated frame numbered `frame` (what: render,
@@ -96,7 +95,7 @@ void pipeline_video_close(pipeline_video_frames *v);
 int pipeline_find_ffmpeg(const gv_reconstruct_options *o, char *out, size_t size);
 
 /* metrics_doc.c: DIR/metrics.json. */
-int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, cJSON **doc);
+int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, const gv_restorer *rec, cJSON **doc);
 /* This interval's run object: the existing one when its inputs are this run's (else a line
  * saying what differs), or a new one listing the plan's frames. */
 int pipeline_doc_run(pipeline_run *r);
@@ -111,7 +110,7 @@ int pipeline_stage_record(pipeline_run *r, const char *name, const char *keys, d
 /* Drops the records of the stage and of every stage after it. */
 void pipeline_stage_forget(pipeline_run *r, const char *name);
 /* The restorer object of metrics.json for a checkpoint (adapt: the scene checkpoint of --adapt). */
-cJSON *pipeline_restorer_json(const char *ckpt, int adapt);
+cJSON *pipeline_restorer_json(const char *ckpt, const gv_restorer *r, int adapt);
 /* doc-building helpers */
 cJSON *pipeline_metric_json(double psnr, double ssim, double lpips, int has_lpips);
 

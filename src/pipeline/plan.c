@@ -12,7 +12,7 @@
 #include "gaussvid/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
-#define SLOTS 3 /* restored frames per clip */
+#define SLOTS GV_INTERVAL_CLIP_HELD_OUT /* restored frames per clip */
 
 void pipeline_plan_free(pipeline_run *r)
 {
@@ -119,29 +119,16 @@ static int name_frames(pipeline_run *r)
     return 0;
 }
 
-int pipeline_check_interval(const gv_scene *scene, int n)
-{
-    if (n != 1 && n < SLOTS + 1)
-        return gv_fail("--interval %d: a clip restores %d held-out frames between two training views, so n must "
-                       "be 1 (every view trains; a smooth path between them is restored) or at least %d",
-                       n, SLOTS, SLOTS + 1);
-    if (n >= scene->n_frames)
-        return gv_fail("--interval %d: %s has %d frames, so fewer than two training views (frames 0, n, 2n, ...)", n,
-                       scene->dir, scene->n_frames);
-    return 0;
-}
-
 int pipeline_plan(pipeline_run *r, const gv_scene *scene, int n)
 {
     int total = scene->n_frames;
     r->scene = scene, r->n = n, r->smooth_path = n == 1;
     r->n_frames = r->n_clips = 0;
-    if (pipeline_check_interval(scene, n)) return -1;
+    if (gv_interval_check(n, total, GV_INTERVAL_RECONSTRUCT)) return gv_fail_context("%s: --interval", scene->dir);
     r->train = malloc((size_t)total * sizeof *r->train);
     r->held_out = malloc((size_t)total * sizeof *r->held_out);
     if (!r->train || !r->held_out) return gv_fail("out of memory for %d frames", total);
-    if (gv_scene_split(total, n, r->train, &r->n_train, r->held_out, &r->n_held_out))
-        return gv_fail_context("%s: --interval %d", scene->dir, n);
+    if (gv_scene_split(total, n, r->train, &r->n_train, r->held_out, &r->n_held_out)) return -1;
     if (r->smooth_path ? plan_smooth_path(r) : plan_held_out(r)) return -1;
     return name_frames(r);
 }

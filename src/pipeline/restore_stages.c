@@ -162,20 +162,16 @@ int pipeline_restore(pipeline_run *r)
     ro.compose = GV_COMPOSE_RESIDUAL;
     restored_writer writer = {r, 0};
     ro.each = write_restored, ro.each_ctx = &writer;
-    gv_scene_adaptation a;
-    int scene_ckpt = rc == 0 ? gv_scene_checkpoint_is(r->restorer) : 0;
-    if (scene_ckpt < 0 || (scene_ckpt == 1 && gv_scene_checkpoint_read(r->restorer, &a))) rc = -1;
-    /* a scene checkpoint restores as its gate measured: with its composition */
-    if (rc == 0 && scene_ckpt == 1 && gv_adapt_gate_compose(&a, &ro.compose)) rc = -1;
-    ro.keep_renders = scene_ckpt == 1 && !a.gate_open;
-    gv_restorer net;
+    gv_restorer net; /* one open: the record always, the weights unless a closed gate keeps the renders */
     memset(&net, 0, sizeof net);
-    if (rc == 0 && !ro.keep_renders) rc = gv_restorer_load(r->restorer, &net);
+    if (rc == 0) rc = gv_restorer_open(r->restorer, GV_RESTORER_NETWORK_IF_GATE_OPEN, &net);
+    /* a scene checkpoint restores as its gate measured: with its composition */
+    if (rc == 0 && net.scene && gv_adapt_gate_compose(&net.adaptation, &ro.compose)) rc = -1;
+    ro.keep_renders = rc == 0 && net.scene && !net.adaptation.gate_open;
     if (rc == 0) rc = gv_restore_files(ro.keep_renders ? NULL : &net, names, r->n_clips, &ro);
-    if (!ro.keep_renders) gv_restorer_free(&net);
     if (rc == 0) {
         cJSON_DeleteItemFromObject(r->run, "restorer");
-        cJSON_AddItemToObject(r->run, "restorer", pipeline_restorer_json(r->restorer, 0));
+        cJSON_AddItemToObject(r->run, "restorer", pipeline_restorer_json(r->restorer, &net, 0));
         char sampler[256];
         gv_sampler_describe(&ro.sampler, sampler, sizeof sampler);
         if (ro.keep_renders)
@@ -185,6 +181,7 @@ int pipeline_restore(pipeline_run *r)
             snprintf(r->summary, sizeof r->summary, "%d clips restored with %s (%s, %s composition)", r->n_clips,
                      r->restorer, sampler, gv_compose_name(ro.compose));
     }
+    gv_restorer_free(&net);
     free(paths), free(names);
     return rc;
 }

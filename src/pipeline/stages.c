@@ -81,9 +81,9 @@ static int stage_index(const char *name)
     return -1;
 }
 
-/* The checks that need no training: flags, the checkpoint, the images' size against the
- * restorer's grid, ffmpeg when the video stage will run. */
-static int check_options(const gv_reconstruct_options *o, const gv_scene *scene, int last)
+/* The checks that need no training: flags, the checkpoint (its record into rec), the images'
+ * size against the restorer's grid, ffmpeg when the video stage will run. */
+static int check_options(const gv_reconstruct_options *o, const gv_scene *scene, int last, gv_restorer *rec)
 {
     if (o->n_intervals < 1) return gv_fail("no --interval given");
     if (o->iters < 1 || o->refine_iters < 1) return gv_fail("--iters and --refine-iters must be at least 1");
@@ -91,17 +91,17 @@ static int check_options(const gv_reconstruct_options *o, const gv_scene *scene,
         return gv_fail("--refine-weight %g: expected a weight in (0, 1]", o->refine_weight);
     if (!(o->fps > 0) || o->fps > 240) return gv_fail("--fps %g: expected 0 < fps <= 240", o->fps);
     for (int k = 0; k < o->n_intervals; k++)
-        if (pipeline_check_interval(scene, o->intervals[k])) return -1;
+        if (gv_interval_check(o->intervals[k], scene->n_frames, GV_INTERVAL_RECONSTRUCT))
+            return gv_fail_context("%s: --interval", scene->dir);
     if (!gv_file_exists(o->ckpt)) return gv_fail("%s: no such checkpoint", o->ckpt);
-    gv_model_config cfg;
-    gv_train_state state;
     gv_model_cost cost;
     int w = scene->cameras[0].width, h = scene->cameras[0].height;
     for (int i = 1; i < scene->n_frames; i++)
         if (scene->cameras[i].width != w || scene->cameras[i].height != h)
             return gv_fail("%s: frame %d is %dx%d, frame 0 %dx%d: the restorer's clips need one size", scene->dir, i,
                            scene->cameras[i].width, scene->cameras[i].height, w, h);
-    if (gv_checkpoint_read_info(o->ckpt, &cfg, &state)) return -1;
+    if (gv_restorer_open(o->ckpt, GV_RESTORER_RECORD, rec)) return -1;
+    const gv_model_config cfg = rec->cfg;
     if (gv_model_cost_estimate(&cfg, 5, h, w, &cost))
         return gv_fail("%s: %dx%d images do not fit the restorer %s (%s): crop or scale them to multiples of %d "
                        "(scene info --downscale may help)", scene->dir, w, h, o->ckpt, cfg.name,
@@ -152,13 +152,16 @@ int gv_reconstruct(const gv_reconstruct_options *o)
     gv_scene_options so = {.downscale = o->downscale};
     if (gv_scene_load(o->scene_dir, &so, &scene)) return -1;
     cJSON *doc = NULL;
-    int rc = check_options(o, &scene, last);
+    gv_restorer rec; /* the checkpoint's record, without its weights */
+    memset(&rec, 0, sizeof rec);
+    int rc = check_options(o, &scene, last, &rec);
     char scene_name[GV_SCENE_NAME_MAX];
     if (rc == 0) /* the scene's numbers mean less when the restorer learned from it */
-        rc = gv_scene_name_of(o->scene_dir, scene_name, sizeof scene_name) || gv_warn_if_trained_on(o->ckpt, scene_name);
+        rc = gv_scene_name_of(o->scene_dir, scene_name, sizeof scene_name) || gv_warn_if_trained_on(&rec, o->ckpt, scene_name);
     if (rc == 0) rc = gv_mkdirs(o->out_dir);
     if (rc == 0) gv_atomic_sweep(o->out_dir, NULL);
-    if (rc == 0) rc = pipeline_doc_open(o, &scene, &doc);
+    if (rc == 0) rc = pipeline_doc_open(o, &scene, &rec, &doc);
+    gv_restorer_free(&rec);
     for (int k = 0; k < o->n_intervals && rc == 0; k++) {
         pipeline_run r;
         memset(&r, 0, sizeof r);

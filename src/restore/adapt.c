@@ -283,9 +283,10 @@ int gv_adapt_scene(const gv_adapt_options *o, gv_adapt_report *r)
 {
     memset(r, 0, sizeof *r);
     if (!o->scene_dir || !o->base || !o->out) return gv_fail("adapt: a scene, a base checkpoint and an output are needed");
-    if (o->interval < 2 || o->iters < 1 || o->subsets < 2 || o->hold_every < 2 || !(o->harm_max_loss_db >= 0))
-        return gv_fail("adapt: interval %d, iterations %d, subsets %d, hold-back interval %d, do-no-harm loss %g dB: need "
-                       "n >= 2, iterations >= 1, subsets >= 2, every >= 2 and a loss >= 0", o->interval, o->iters,
+    if (gv_interval_check(o->interval, 0, GV_INTERVAL_CLIPS)) return gv_fail_context("adapt");
+    if (o->iters < 1 || o->subsets < 2 || o->hold_every < 2 || !(o->harm_max_loss_db >= 0))
+        return gv_fail("adapt: iterations %d, subsets %d, hold-back interval %d, do-no-harm loss %g dB: need "
+                       "iterations >= 1, subsets >= 2, every >= 2 and a loss >= 0", o->iters,
                        o->subsets, o->hold_every, o->harm_max_loss_db);
     if (o->work_dir) snprintf(r->work_dir, sizeof r->work_dir, "%s", o->work_dir);
     else snprintf(r->work_dir, sizeof r->work_dir, "%s.work", o->out);

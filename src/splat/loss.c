@@ -105,7 +105,7 @@ static float *scratch_of(const gv_splat_loss_work *w)
 
 /* out[i] = sum_k g[k] in[i + 3 (k - 5)] for a line of n values; in[-15 .. n + 15) holds
  * zeros outside [0, n). */
-SIMD8_CLONES static void filter_line(const float *restrict in, float *restrict out, size_t n,
+static SIMD8_CLONES void filter_line(const float *restrict in, float *restrict out, size_t n,
                                      const float *g)
 {
     const float g0 = g[0], g1 = g[1], g2 = g[2], g3 = g[3], g4 = g[4], g5 = g[5];
@@ -120,7 +120,7 @@ SIMD8_CLONES static void filter_line(const float *restrict in, float *restrict o
 
 /* acc[m][i] = sum_k g[k] map_(first + m)[y + k - 5][i], rows outside the image being zero:
  * the eleven rows are summed in registers, left to right, one store per value. */
-SIMD8_CLONES static void filter_column(const gv_splat_loss_work *w, int first, int n_maps,
+static SIMD8_CLONES void filter_column(const gv_splat_loss_work *w, int first, int n_maps,
                                        int y, float *restrict acc)
 {
     size_t n = line_of(w);
@@ -146,7 +146,7 @@ SIMD8_CLONES static void filter_column(const gv_splat_loss_work *w, int first, i
 }
 
 /* Pass 1: the horizontally filtered moments of line y. */
-SIMD8_CLONES static void moments_line(const gv_splat_loss_work *w, const float *a,
+static SIMD8_CLONES void moments_line(const gv_splat_loss_work *w, const float *a,
                                       const float *b, int y)
 {
     size_t n = line_of(w), padded = n + 2 * PAD;
@@ -169,7 +169,7 @@ SIMD8_CLONES static void moments_line(const gv_splat_loss_work *w, const float *
 
 /* Pass 2: vertical filter of line y, its SSIM values (summed into row_sums) and the
  * gradient terms g dS/du, g dS/dp, g dS/dq. */
-SIMD8_CLONES static void ssim_line(gv_splat_loss_work *w, int y, float g)
+static SIMD8_CLONES void ssim_line(gv_splat_loss_work *w, int y, float g)
 {
     size_t n = line_of(w);
     float *acc = scratch_of(w), *ssim = acc + N_MOMENTS * n;
@@ -204,7 +204,7 @@ SIMD8_CLONES static void ssim_line(gv_splat_loss_work *w, int y, float g)
 }
 
 /* Pass 3: horizontal filter of the gradient terms of line y, into the first three maps. */
-SIMD8_CLONES static void gradient_line(const gv_splat_loss_work *w, int y)
+static SIMD8_CLONES void gradient_line(const gv_splat_loss_work *w, int y)
 {
     size_t n = line_of(w), padded = n + 2 * PAD;
     float *pad = scratch_of(w);
@@ -219,7 +219,7 @@ SIMD8_CLONES static void gradient_line(const gv_splat_loss_work *w, int y)
 
 /* Pass 4: vertical filter of the gradient terms and dL/drender of line y; L1 into
  * row_sums. */
-SIMD8_CLONES static void output_line(gv_splat_loss_work *w, const float *a, const float *b,
+static SIMD8_CLONES void output_line(gv_splat_loss_work *w, const float *a, const float *b,
                                      int y, float w_l1, float *d_render)
 {
     size_t n = line_of(w);

@@ -6,7 +6,7 @@
 
 /* dL/dq (raw quaternion) from dL/dRq (section 10.6) and the normalisation
  * q = raw / |raw|: d/draw = (dq - q (q . dq)) / |raw|. */
-SIMD8_INLINE void rotmat_backward8(const lanes_state *p, const f8 gR[9], f8 d_rot[4])
+static SIMD8_INLINE void rotmat_backward8(const lanes_state *p, const f8 gR[9], f8 d_rot[4])
 {
     f8 w = p->q[0], x = p->q[1], y = p->q[2], z = p->q[3];
     f8 dq[4];
@@ -22,8 +22,8 @@ SIMD8_INLINE void rotmat_backward8(const lanes_state *p, const f8 gR[9], f8 d_ro
 }
 
 /* Gradients of eight Gaussians (lanes of g) from their d means2d (gm) and d conic (gc). */
-SIMD8_INLINE void backward8(const gv_splat_view *v, const lanes_in *g, const f8 gm[2],
-                            const f8 gc[3], f8 d_mean[3], f8 d_scale[3], f8 d_rot[4])
+static SIMD8_INLINE void backward8(const gv_splat_view *v, const lanes_in *g, const f8 gm[2],
+                                   const f8 gc[3], f8 d_mean[3], f8 d_scale[3], f8 d_rot[4])
 {
     lanes_state p;
     i8 ok = project_state8(v, g, &p); /* the listed Gaussians are visible: always true */
@@ -96,7 +96,7 @@ SIMD8_INLINE void backward8(const gv_splat_view *v, const lanes_in *g, const f8 
 }
 
 /* The listed Gaussians list[k0 .. k1). */
-RASTER_CLONES static void backward_span(int k0, int k1, const int *list, const float *means,
+static RASTER_CLONES void backward_span(int k0, int k1, const int *list, const float *means,
                                         const float *scales, const float *rotations,
                                         const gv_splat_view *v, const float *d_means2d,
                                         const float *d_conics, float *d_means, float *d_scales,
@@ -112,7 +112,7 @@ RASTER_CLONES static void backward_span(int k0, int k1, const int *list, const f
         }
         lane_indices(list + k, count, idx);
         lanes_in g;
-        gather(idx, means, scales, rotations, &g);
+        gather_lanes(idx, means, scales, rotations, &g);
         f8 gm[2], gc[3], d_mean[3], d_scale[3], d_rot[4];
         for (int l = 0; l < LANES; l++) {
             size_t i = (size_t)idx[l];

@@ -14,7 +14,7 @@ enum { CHUNK = 256 };
 
 /* ceilf(x) for x >= 0, infinity or NaN: below 2^24 through the truncating conversion, above
  * it x is already an integer (and infinity and NaN are returned as they are). */
-SIMD8_INLINE f8 ceil_nonneg8(f8 x)
+static SIMD8_INLINE f8 ceil_nonneg8(f8 x)
 {
     i8 small = x < f8_splat(16777216.0f);
     f8 xs = f8_mask(small, x);
@@ -23,7 +23,7 @@ SIMD8_INLINE f8 ceil_nonneg8(f8 x)
 }
 
 /* binning.c's tile_coord: truncation towards zero of a clamped float, then [0, grid]. */
-SIMD8_INLINE i8 tile_coord8(f8 v, int grid)
+static SIMD8_INLINE i8 tile_coord8(f8 v, int grid)
 {
     v = f8_select(v > -1.0f, v, f8_splat(-1.0f)); /* NaN becomes -1 */
     v = f8_select(v < (float)grid + 1.0f, v, f8_splat((float)grid + 1.0f));
@@ -33,7 +33,7 @@ SIMD8_INLINE i8 tile_coord8(f8 v, int grid)
 }
 
 /* All ones where gv_splat_tile_rect(mx, my, radius) is empty. */
-SIMD8_INLINE i8 rect_empty8(f8 mx, f8 my, i8 radius, int tiles_x, int tiles_y)
+static SIMD8_INLINE i8 rect_empty8(f8 mx, f8 my, i8 radius, int tiles_x, int tiles_y)
 {
     f8 px = mx - 0.5f, py = my - 0.5f, r = __builtin_convertvector(radius, f8);
     const float tile = (float)GV_SPLAT_TILE;
@@ -44,7 +44,7 @@ SIMD8_INLINE i8 rect_empty8(f8 mx, f8 my, i8 radius, int tiles_x, int tiles_y)
 }
 
 /* The pixel position of the mean; finite where ok. */
-SIMD8_INLINE void pixel_mean(const gv_splat_view *v, const f8 t[3], f8 *mx, f8 *my)
+static SIMD8_INLINE void pixel_mean(const gv_splat_view *v, const f8 t[3], f8 *mx, f8 *my)
 {
     *mx = v->fx * t[0] / t[2] + v->cx;
     *my = v->fy * t[1] / t[2] + v->cy;
@@ -53,8 +53,8 @@ SIMD8_INLINE void pixel_mean(const gv_splat_view *v, const f8 t[3], f8 *mx, f8 *
 /* Pass 1: all ones where the radius bound already culls the Gaussian (an empty tile
  * rectangle). Lanes the bound does not settle (behind the near plane, non-finite, a huge
  * bound) are left to pass 2. */
-SIMD8_INLINE i8 surely_off_screen8(const gv_splat_view *v, const lanes_in *g, int tiles_x,
-                                   int tiles_y)
+static SIMD8_INLINE i8 surely_off_screen8(const gv_splat_view *v, const lanes_in *g, int tiles_x,
+                                          int tiles_y)
 {
     f8 t[3];
     camera_point(v, g, t);
@@ -74,9 +74,9 @@ SIMD8_INLINE i8 surely_off_screen8(const gv_splat_view *v, const lanes_in *g, in
 
 /* Pass 2: the whole projection of eight Gaussians; writes the outputs of the first `count`
  * lanes (radius 0 and zeros for the culled ones). */
-SIMD8_INLINE void project8(const gv_splat_view *v, const lanes_in *g, const int idx[LANES],
-                           int count, int tiles_x, int tiles_y, float *means2d, float *conics,
-                           float *depths, int *radii)
+static SIMD8_INLINE void project8(const gv_splat_view *v, const lanes_in *g, const int idx[LANES],
+                                  int count, int tiles_x, int tiles_y, float *means2d, float *conics,
+                                  float *depths, int *radii)
 {
     lanes_state p;
     i8 ok = project_state8(v, g, &p);
@@ -122,7 +122,7 @@ static inline void cull(size_t i, float *means2d, float *conics, float *depths, 
 }
 
 /* Gaussians [lo, hi), hi - lo <= CHUNK. */
-RASTER_CLONES static void project_chunk(int lo, int hi, const float *means, const float *scales,
+static RASTER_CLONES void project_chunk(int lo, int hi, const float *means, const float *scales,
                                         const float *rotations, const gv_splat_view *v,
                                         int tiles_x, int tiles_y, float *means2d, float *conics,
                                         float *depths, int *radii)
@@ -133,7 +133,7 @@ RASTER_CLONES static void project_chunk(int lo, int hi, const float *means, cons
     for (int k = 0; k < hi - lo; k += LANES) {
         int count = hi - lo - k < LANES ? hi - lo - k : LANES;
         lane_indices(all + k, count, idx);
-        gather(idx, means, scales, rotations, &g);
+        gather_lanes(idx, means, scales, rotations, &g);
         i8 off = surely_off_screen8(v, &g, tiles_x, tiles_y);
         for (int l = 0; l < count; l++) {
             if (off[l])
@@ -145,7 +145,7 @@ RASTER_CLONES static void project_chunk(int lo, int hi, const float *means, cons
     for (int k = 0; k < n_left; k += LANES) {
         int count = n_left - k < LANES ? n_left - k : LANES;
         lane_indices(left + k, count, idx);
-        gather(idx, means, scales, rotations, &g);
+        gather_lanes(idx, means, scales, rotations, &g);
         project8(v, &g, idx, count, tiles_x, tiles_y, means2d, conics, depths, radii);
     }
 }

@@ -16,31 +16,31 @@
 enum { LANES = 8 };
 
 /* a > b ? a : b and a < b ? a : b, lane by lane (NaN gives the second operand). */
-SIMD8_INLINE f8 max8(f8 a, f8 b)
+static SIMD8_INLINE f8 max8(f8 a, f8 b)
 {
     return f8_select(a > b, a, b);
 }
 
-SIMD8_INLINE f8 min8(f8 a, f8 b)
+static SIMD8_INLINE f8 min8(f8 a, f8 b)
 {
     return f8_select(a < b, a, b);
 }
 
 /* All ones where x is finite: x - x is 0 there and NaN for infinities and NaN. */
-SIMD8_INLINE i8 finite8(f8 x)
+static SIMD8_INLINE i8 finite8(f8 x)
 {
     return (x - x) == f8_splat(0.0f);
 }
 
 /* Correctly rounded, as sqrtf (the files are compiled without errno, so this vectorises). */
-SIMD8_INLINE f8 sqrt8(f8 x)
+static SIMD8_INLINE f8 sqrt8(f8 x)
 {
     f8 r;
     for (int l = 0; l < LANES; l++) r[l] = __builtin_sqrtf(x[l]);
     return r;
 }
 
-SIMD8_INLINE f8 expf8(f8 x)
+static SIMD8_INLINE f8 expf8(f8 x)
 {
     f8 r;
     for (int l = 0; l < LANES; l++) r[l] = expf(x[l]);
@@ -53,8 +53,8 @@ typedef struct {
 } lanes_in;
 
 /* Lane l takes row idx[l]. */
-SIMD8_INLINE void gather(const int idx[LANES], const float *means, const float *scales,
-                         const float *rotations, lanes_in *g)
+static SIMD8_INLINE void gather_lanes(const int idx[LANES], const float *means, const float *scales,
+                                      const float *rotations, lanes_in *g)
 {
     for (int l = 0; l < LANES; l++) {
         size_t i = (size_t)idx[l];
@@ -65,13 +65,13 @@ SIMD8_INLINE void gather(const int idx[LANES], const float *means, const float *
 }
 
 /* Lanes [0, count) take list[0 .. count); the last is repeated to fill eight. */
-SIMD8_INLINE void lane_indices(const int *list, int count, int idx[LANES])
+static SIMD8_INLINE void lane_indices(const int *list, int count, int idx[LANES])
 {
     for (int l = 0; l < LANES; l++) idx[l] = list[l < count ? l : count - 1];
 }
 
 /* Camera-space mean t = W mean + t_view. */
-SIMD8_INLINE void camera_point(const gv_splat_view *v, const lanes_in *g, f8 t[3])
+static SIMD8_INLINE void camera_point(const gv_splat_view *v, const lanes_in *g, f8 t[3])
 {
     const float *W = v->R;
     for (int i = 0; i < 3; i++)
@@ -93,7 +93,7 @@ typedef struct {
 /* The forward up to the 2D covariance (reference doc sections 2 and 5); returns all ones in
  * the lanes in front of the near plane with a finite depth, zeros in the others (whose
  * state is meaningless). */
-SIMD8_INLINE i8 project_state8(const gv_splat_view *v, const lanes_in *g, lanes_state *p)
+static SIMD8_INLINE i8 project_state8(const gv_splat_view *v, const lanes_in *g, lanes_state *p)
 {
     const float *W = v->R;
     camera_point(v, g, p->t);

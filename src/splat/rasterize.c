@@ -21,9 +21,10 @@
 #include <string.h>
 
 #include "gaussvid/splat.h"
+#include "splat/blend8.h"
 #include "splat/simd8.h"
 
-enum { TILE_PIXELS = GV_SPLAT_TILE * GV_SPLAT_TILE, GRAD_WIDTH = 9, SPLAT_WIDTH = 12 };
+enum { GRAD_WIDTH = 9, SPLAT_WIDTH = 12 };
 enum { PREFETCH = 8 }; /* how far ahead scattered rows are fetched */
 
 /* Packs the 2D data of each visible Gaussian by depth rank (the order in which the tiles
@@ -63,11 +64,10 @@ static void pack_splats(const gv_splat_tiles *t, const float *means2d, const flo
     }
 }
 
-/* One Gaussian as a tile sees it. */
+/* One Gaussian as a tile sees it (blend8.h) and its colour. */
 typedef struct {
-    float mx, my, A, B, C, o, col[3];
-    float power_min; /* below this power alpha < 1/255 for certain */
-    int x0, x1, y0, y1; /* pixel box inside the tile, inclusive; x0 is a multiple of 8 */
+    tile_splat g;
+    float col[3];
 } splat2d;
 
 /* floor(v) and ceil(v) as ints, clamped to [-1, limit] first (no libm calls: this runs for
@@ -89,7 +89,7 @@ static inline int ceil_bound(float v, int limit)
 }
 
 /* Returns 0 when the Gaussian's alpha box misses the tile. */
-SIMD8_INLINE int load_splat(splat2d *s, const float *p, int px0, int py0, int tw, int th)
+static SIMD8_INLINE int load_splat(splat2d *s, const float *p, int px0, int py0, int tw, int th)
 {
     if (p[9] < 0) return 0;
     /* Pixel x has its centre at px0 + x + 0.5. */
@@ -97,106 +97,61 @@ SIMD8_INLINE int load_splat(splat2d *s, const float *p, int px0, int py0, int tw
     int x1 = floor_bound(p[0] + p[9] - 0.5f - (float)px0, tw);
     int y0 = ceil_bound(p[1] - p[10] - 0.5f - (float)py0, th);
     int y1 = floor_bound(p[1] + p[10] - 0.5f - (float)py0, th);
-    s->x0 = x0 < 0 ? 0 : x0;
-    s->y0 = y0 < 0 ? 0 : y0;
-    s->x1 = x1 > tw - 1 ? tw - 1 : x1;
-    s->y1 = y1 > th - 1 ? th - 1 : y1;
-    if (s->x0 > s->x1 || s->y0 > s->y1) return 0;
-    s->x0 &= ~7; /* whole groups of eight pixels */
-    s->mx = p[0], s->my = p[1], s->A = p[2], s->B = p[3], s->C = p[4], s->o = p[5];
+    s->g.x0 = x0 < 0 ? 0 : x0;
+    s->g.y0 = y0 < 0 ? 0 : y0;
+    s->g.x1 = x1 > tw - 1 ? tw - 1 : x1;
+    s->g.y1 = y1 > th - 1 ? th - 1 : y1;
+    if (s->g.x0 > s->g.x1 || s->g.y0 > s->g.y1) return 0;
+    s->g.x0 &= ~7; /* whole groups of eight pixels */
+    s->g.mx = p[0], s->g.my = p[1], s->g.A = p[2], s->g.B = p[3], s->g.C = p[4], s->g.o = p[5];
     s->col[0] = p[6], s->col[1] = p[7], s->col[2] = p[8];
-    s->power_min = p[11];
+    s->g.power_min = p[11];
     return 1;
 }
 
-/* Pixel centre offsets of the eight lanes. */
-static const f8 LANE_CENTRES = {0.5f, 1.5f, 2.5f, 3.5f, 4.5f, 5.5f, 6.5f, 7.5f};
-
-/* power = -0.5 (A dx^2 + C dy^2) - B dx dy for eight pixels of a row, in the reference's
- * order of operations (C dy dy is the same for the row). */
-SIMD8_INLINE f8 splat_power(const splat2d *s, f8 dx, float dy, float cdd)
+/* The Gaussian's power and alpha at eight pixels of a row (blend8.h). */
+static SIMD8_INLINE f8 splat_power(const splat2d *s, f8 dx, float dy, float cdd)
 {
-    return -0.5f * (s->A * dx * dx + cdd) - s->B * dx * dy;
+    return gaussian_power(s->g.A, s->g.B, dx, dy, cdd);
 }
 
-/* alpha = min(0.99, o exp(power)) */
-SIMD8_INLINE f8 splat_alpha(const splat2d *s, f8 power, f8 *G)
+static SIMD8_INLINE f8 splat_alpha(const splat2d *s, f8 power, f8 *G)
 {
-    *G = f8_exp_neg(f8_min(power, f8_splat(0.0f)));
-    return f8_min(s->o * *G, f8_splat(GV_SPLAT_ALPHA_MAX));
+    return gaussian_alpha(s->g.o, power, G);
 }
 
 /* Per-pixel state of the forward blend. */
 typedef struct {
-    float T[TILE_PIXELS], C[3][TILE_PIXELS];
-    int32_t last[TILE_PIXELS], live[TILE_PIXELS];
-    int row_live[GV_SPLAT_TILE]; /* live pixels per row */
+    tile_pixels px;
+    float C[3][TILE_PIXELS];
+    int32_t last[TILE_PIXELS];
 } blend_state;
 
-/* Blends one Gaussian into the live pixels of its box; returns the number of pixels that
- * stopped (their next transmittance would fall below 1e-4). */
-SIMD8_INLINE int blend_splat(blend_state *st, const splat2d *s, int j, int px0, int py0)
-{
-    int stopped = 0;
-    i8 contributor = {j + 1, j + 1, j + 1, j + 1, j + 1, j + 1, j + 1, j + 1};
-    f8 centres = f8_splat((float)px0) + LANE_CENTRES; /* pixel centres of the lanes at x = 0 */
-    for (int y = s->y0; y <= s->y1; y++) {
-        if (st->row_live[y] == 0) continue;
-        float dy = s->my - ((float)(py0 + y) + 0.5f), cdd = s->C * dy * dy;
-        i8 stops = {0, 0, 0, 0, 0, 0, 0, 0};
-        for (int x = s->x0; x <= s->x1; x += 8) {
-            int p = y * GV_SPLAT_TILE + x;
-            i8 live = i8_load(st->live + p);
-            f8 dx = s->mx - (centres + (float)x), G; /* exact centres: one rounding */
-            f8 power = splat_power(s, dx, dy, cdd);
-            if (!i8_any(live & (power >= s->power_min))) continue; /* nothing to blend */
-            f8 alpha = splat_alpha(s, power, &G);
-            i8 ok = live & (power <= 0.0f) & (alpha >= GV_SPLAT_ALPHA_MIN);
-            f8 T = f8_load(st->T + p), test_T = T * (1.0f - alpha);
-            i8 stop = ok & (test_T < GV_SPLAT_T_MIN); /* this Gaussian is not blended */
-            i8 blend = ok & ~stop;
-            f8 w = f8_mask(blend, alpha);
-            for (int c = 0; c < 3; c++)
-                f8_store(st->C[c] + p, f8_load(st->C[c] + p) + s->col[c] * w * T);
-            f8_store(st->T + p, f8_select(blend, test_T, T));
-            i8_store(st->last + p, i8_select(blend, contributor, i8_load(st->last + p)));
-            i8_store(st->live + p, live & ~stop);
-            stops += stop;
-        }
-        int n = i8_count(stops);
-        st->row_live[y] -= n;
-        stopped += n;
-    }
-    return stopped;
-}
-
-RASTER_CLONES static void render_tile(const gv_splat_tiles *t, int tile, int width, int height,
+static RASTER_CLONES void render_tile(const gv_splat_tiles *t, int tile, int width, int height,
                         const float bg[3], float *image, float *final_T, int *n_contrib)
 {
-    int px0 = (tile % t->tiles_x) * GV_SPLAT_TILE, py0 = (tile / t->tiles_x) * GV_SPLAT_TILE;
-    int tw = width - px0 < GV_SPLAT_TILE ? width - px0 : GV_SPLAT_TILE;
-    int th = height - py0 < GV_SPLAT_TILE ? height - py0 : GV_SPLAT_TILE;
+    tile_box b = tile_box_of(t, tile, width, height);
+    int px0 = b.px0, py0 = b.py0, tw = b.tw, th = b.th;
     blend_state st __attribute__((aligned(32)));
-    for (int p = 0; p < TILE_PIXELS; p++) {
-        st.T[p] = 1, st.C[0][p] = st.C[1][p] = st.C[2][p] = 0, st.last[p] = 0;
-        st.live[p] = (p % GV_SPLAT_TILE) < tw && (p / GV_SPLAT_TILE) < th ? -1 : 0;
-    }
-    for (int y = 0; y < GV_SPLAT_TILE; y++) st.row_live[y] = y < th ? tw : 0;
-    int n_live = tw * th;
+    int n_live = tile_start(&st.px, b);
+    for (int p = 0; p < TILE_PIXELS; p++) st.C[0][p] = st.C[1][p] = st.C[2][p] = 0, st.last[p] = 0;
+    blend_target to = {{st.C[0], st.C[1], st.C[2]}, {0, 0, 0}, st.last, 0};
     int start = t->tile_offsets[tile], count = t->tile_offsets[tile + 1] - start;
     const int *entries = t->entries + start;
     for (int j = 0; j < count && n_live > 0; j++) {
         splat2d s;
         if (j + 8 < count) __builtin_prefetch(t->splats + (size_t)entries[j + 8] * SPLAT_WIDTH);
-        if (load_splat(&s, t->splats + (size_t)entries[j] * SPLAT_WIDTH, px0, py0, tw, th))
-            n_live -= blend_splat(&st, &s, j, px0, py0);
+        if (load_splat(&s, t->splats + (size_t)entries[j] * SPLAT_WIDTH, px0, py0, tw, th)) {
+            to.value[0] = s.col[0], to.value[1] = s.col[1], to.value[2] = s.col[2], to.index = j;
+            n_live -= blend_box(&st.px, &s.g, px0, py0, BLEND_COLOUR, &to);
+        }
     }
     for (int y = 0; y < th; y++)
         for (int x = 0; x < tw; x++) {
             int p = y * GV_SPLAT_TILE + x;
             size_t pix = (size_t)(py0 + y) * width + (px0 + x);
-            for (int c = 0; c < 3; c++) image[pix * 3 + c] = st.C[c][p] + st.T[p] * bg[c];
-            final_T[pix] = st.T[p];
+            for (int c = 0; c < 3; c++) image[pix * 3 + c] = st.C[c][p] + st.px.T[p] * bg[c];
+            final_T[pix] = st.px.T[p];
             n_contrib[pix] = st.last[p];
         }
 }
@@ -229,24 +184,24 @@ typedef struct {
  * per pixel and d = mean - pixel, dG/dmean = -G K d and dG/dK = -G d d^T / 2, so the sums
  * needed are of q dx, q dy, q dx^2, q dx dy, q dy^2; dy is constant along a row, so a row
  * sums q, q dx, q dx^2 and folds them in. */
-SIMD8_INLINE void entry_backward(tile_state *st, const splat2d *s, int j, int px0, int py0,
-                                 float row[GRAD_WIDTH])
+static SIMD8_INLINE void entry_backward(tile_state *st, const splat2d *s, int j, int px0, int py0,
+                                        float row[GRAD_WIDTH])
 {
     f8 zero = f8_splat(0.0f);
     f8 e_qx = zero, e_qy = zero, e_qxx = zero, e_qxy = zero, e_qyy = zero;
     f8 e_o = zero, e_c0 = zero, e_c1 = zero, e_c2 = zero;
     i8 jv = {j, j, j, j, j, j, j, j};
     f8 centres = f8_splat((float)px0) + LANE_CENTRES; /* pixel centres of the lanes at x = 0 */
-    for (int y = s->y0; y <= s->y1; y++) {
+    for (int y = s->g.y0; y <= s->g.y1; y++) {
         if (j >= st->row_contrib[y]) continue;
-        float dy = s->my - ((float)(py0 + y) + 0.5f), cdd = s->C * dy * dy;
+        float dy = s->g.my - ((float)(py0 + y) + 0.5f), cdd = s->g.C * dy * dy;
         f8 r_q = zero, r_qx = zero, r_qxx = zero;
-        for (int x = s->x0; x <= s->x1; x += 8) {
+        for (int x = s->g.x0; x <= s->g.x1; x += 8) {
             int p = y * GV_SPLAT_TILE + x;
             i8 m = jv < i8_load(st->n_contrib + p); /* this pixel blended entry j */
-            f8 dx = s->mx - (centres + (float)x), G; /* exact centres: one rounding */
+            f8 dx = s->g.mx - (centres + (float)x), G; /* exact centres: one rounding */
             f8 power = splat_power(s, dx, dy, cdd);
-            if (!i8_any(m & (power >= s->power_min))) continue; /* not blended here */
+            if (!i8_any(m & (power >= s->g.power_min))) continue; /* not blended here */
             f8 alpha = splat_alpha(s, power, &G);
             m &= (power <= 0.0f) & (alpha >= GV_SPLAT_ALPHA_MIN);
             if (!i8_any(m)) continue;
@@ -268,15 +223,15 @@ SIMD8_INLINE void entry_backward(tile_state *st, const splat2d *s, int j, int px
             e_c0 += w * g0, e_c1 += w * g1, e_c2 += w * g2;
             /* alpha = o G (the 0.99 clamp is ignored, as in 3DGS) */
             e_o += G * dL_dalpha;
-            f8 q = (s->o * G) * dL_dalpha, qx = q * dx;
+            f8 q = (s->g.o * G) * dL_dalpha, qx = q * dx;
             r_q += q, r_qx += qx, r_qxx += qx * dx;
         }
         e_qx += r_qx, e_qxx += r_qxx;
         e_qy += dy * r_q, e_qxy += dy * r_qx, e_qyy += (dy * dy) * r_q;
     }
     float qx = f8_sum(e_qx), qy = f8_sum(e_qy);
-    row[0] = -s->A * qx - s->B * qy;
-    row[1] = -s->C * qy - s->B * qx;
+    row[0] = -s->g.A * qx - s->g.B * qy;
+    row[1] = -s->g.C * qy - s->g.B * qx;
     row[2] = -0.5f * f8_sum(e_qxx);
     row[3] = -f8_sum(e_qxy); /* B appears twice in d^T K d */
     row[4] = -0.5f * f8_sum(e_qyy);
@@ -284,7 +239,7 @@ SIMD8_INLINE void entry_backward(tile_state *st, const splat2d *s, int j, int px
     row[8] = f8_sum(e_o);
 }
 
-RASTER_CLONES static void backward_tile(gv_splat_tiles *t, int tile, int width, int height,
+static RASTER_CLONES void backward_tile(gv_splat_tiles *t, int tile, int width, int height,
                                        const float bg[3], const float *final_T,
                                        const int *n_contrib, const float *d_image)
 {

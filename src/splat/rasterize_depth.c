@@ -16,21 +16,18 @@
 #include "gaussvid/core.h"
 #include "gaussvid/render.h"
 #include "gaussvid/splat.h"
+#include "splat/blend8.h"
 #include "splat/simd8.h"
 
-enum { TILE_PIXELS = GV_SPLAT_TILE * GV_SPLAT_TILE };
-
-/* One Gaussian of a tile list: its 2D data and view depth, and its pixel box inside the
- * tile (inclusive; x0 a multiple of 8). */
+/* One Gaussian of a tile list as the tile sees it (blend8.h) and its view depth. */
 typedef struct {
-    float mx, my, A, B, C, o, z;
-    int x0, x1, y0, y1;
+    tile_splat g;
+    float z;
 } depth_splat;
 
 typedef struct {
-    float T[TILE_PIXELS], w[TILE_PIXELS], wz[TILE_PIXELS];
-    int32_t live[TILE_PIXELS];
-    int row_live[GV_SPLAT_TILE];
+    tile_pixels px;
+    float w[TILE_PIXELS], wz[TILE_PIXELS];
 } depth_state;
 
 static int clamp_int(float v, int lo, int hi)
@@ -53,81 +50,44 @@ static int load_depth_splat(depth_splat *s, int g, const float *means2d, const f
         hx = sqrtf(level * C / det) + 0.01f;
         hy = sqrtf(level * A / det) + 0.01f;
     }
-    s->mx = means2d[2 * g], s->my = means2d[2 * g + 1];
+    s->g.mx = means2d[2 * g], s->g.my = means2d[2 * g + 1];
     /* pixel x of the tile has its centre at px0 + x + 0.5 */
-    s->x0 = clamp_int(ceilf(s->mx - hx - 0.5f - (float)px0), 0, tw);
-    s->x1 = clamp_int(floorf(s->mx + hx - 0.5f - (float)px0) + 1.0f, 0, tw) - 1;
-    s->y0 = clamp_int(ceilf(s->my - hy - 0.5f - (float)py0), 0, th);
-    s->y1 = clamp_int(floorf(s->my + hy - 0.5f - (float)py0) + 1.0f, 0, th) - 1;
-    if (s->x0 > s->x1 || s->y0 > s->y1) return 0;
-    s->x0 &= ~7;
-    s->A = A, s->B = B, s->C = C, s->o = o, s->z = depths[g];
+    s->g.x0 = clamp_int(ceilf(s->g.mx - hx - 0.5f - (float)px0), 0, tw);
+    s->g.x1 = clamp_int(floorf(s->g.mx + hx - 0.5f - (float)px0) + 1.0f, 0, tw) - 1;
+    s->g.y0 = clamp_int(ceilf(s->g.my - hy - 0.5f - (float)py0), 0, th);
+    s->g.y1 = clamp_int(floorf(s->g.my + hy - 0.5f - (float)py0) + 1.0f, 0, th) - 1;
+    if (s->g.x0 > s->g.x1 || s->g.y0 > s->g.y1) return 0;
+    s->g.x0 &= ~7;
+    s->g.A = A, s->g.B = B, s->g.C = C, s->g.o = o, s->z = depths[g];
+    s->g.power_min = -INFINITY; /* every pixel of the box is tested */
     return 1;
 }
 
-/* Blends one Gaussian's depth into the live pixels of its box (rasterize.c blend_splat,
- * with the depth in place of the colour); returns the number of pixels that stopped. */
-SIMD8_INLINE int blend_depth(depth_state *st, const depth_splat *s, int px0, int py0)
-{
-    static const f8 lane_centres = {0.5f, 1.5f, 2.5f, 3.5f, 4.5f, 5.5f, 6.5f, 7.5f};
-    f8 centres = f8_splat((float)px0) + lane_centres;
-    int stopped = 0;
-    for (int y = s->y0; y <= s->y1; y++) {
-        if (st->row_live[y] == 0) continue;
-        float dy = s->my - ((float)(py0 + y) + 0.5f), cdd = s->C * dy * dy;
-        i8 stops = {0, 0, 0, 0, 0, 0, 0, 0};
-        for (int x = s->x0; x <= s->x1; x += 8) {
-            int p = y * GV_SPLAT_TILE + x;
-            i8 live = i8_load(st->live + p);
-            f8 dx = s->mx - (centres + (float)x);
-            f8 power = -0.5f * (s->A * dx * dx + cdd) - s->B * dx * dy;
-            f8 G = f8_exp_neg(f8_min(power, f8_splat(0.0f)));
-            f8 alpha = f8_min(s->o * G, f8_splat(GV_SPLAT_ALPHA_MAX));
-            i8 ok = live & (power <= 0.0f) & (alpha >= GV_SPLAT_ALPHA_MIN);
-            f8 T = f8_load(st->T + p), test_T = T * (1.0f - alpha);
-            i8 stop = ok & (test_T < GV_SPLAT_T_MIN);
-            i8 blend = ok & ~stop;
-            f8 w = f8_mask(blend, alpha) * T;
-            f8_store(st->w + p, f8_load(st->w + p) + w);
-            f8_store(st->wz + p, f8_load(st->wz + p) + w * s->z);
-            f8_store(st->T + p, f8_select(blend, test_T, T));
-            i8_store(st->live + p, live & ~stop);
-            stops += stop;
-        }
-        int n = i8_count(stops);
-        st->row_live[y] -= n;
-        stopped += n;
-    }
-    return stopped;
-}
-
-RASTER_CLONES static void depth_tile(const gv_splat_tiles *t, int tile, int width, int height,
+static RASTER_CLONES void depth_tile(const gv_splat_tiles *t, int tile, int width, int height,
                                     const float *means2d, const float *conics,
                                     const float *opacities, const float *depths, float *depth,
                                     float *opacity)
 {
-    int px0 = (tile % t->tiles_x) * GV_SPLAT_TILE, py0 = (tile / t->tiles_x) * GV_SPLAT_TILE;
-    int tw = width - px0 < GV_SPLAT_TILE ? width - px0 : GV_SPLAT_TILE;
-    int th = height - py0 < GV_SPLAT_TILE ? height - py0 : GV_SPLAT_TILE;
+    tile_box b = tile_box_of(t, tile, width, height);
+    int px0 = b.px0, py0 = b.py0, tw = b.tw, th = b.th;
     depth_state st __attribute__((aligned(32)));
-    for (int p = 0; p < TILE_PIXELS; p++) {
-        st.T[p] = 1, st.w[p] = st.wz[p] = 0;
-        st.live[p] = (p % GV_SPLAT_TILE) < tw && (p / GV_SPLAT_TILE) < th ? -1 : 0;
-    }
-    for (int y = 0; y < GV_SPLAT_TILE; y++) st.row_live[y] = y < th ? tw : 0;
-    int n_live = tw * th;
+    int n_live = tile_start(&st.px, b);
+    for (int p = 0; p < TILE_PIXELS; p++) st.w[p] = st.wz[p] = 0;
+    blend_target to = {{st.w, st.wz, NULL}, {0, 0, 0}, NULL, 0};
     for (int e = t->tile_offsets[tile]; e < t->tile_offsets[tile + 1] && n_live > 0; e++) {
         depth_splat s;
         int g = t->depth_order[t->entries[e]];
-        if (load_depth_splat(&s, g, means2d, conics, opacities, depths, px0, py0, tw, th))
-            n_live -= blend_depth(&st, &s, px0, py0);
+        if (load_depth_splat(&s, g, means2d, conics, opacities, depths, px0, py0, tw, th)) {
+            to.value[0] = s.z; /* the image's blend, with the depth in place of the colour */
+            n_live -= blend_box(&st.px, &s.g, px0, py0, BLEND_DEPTH, &to);
+        }
     }
     for (int y = 0; y < th; y++)
         for (int x = 0; x < tw; x++) {
             int p = y * GV_SPLAT_TILE + x;
             size_t pix = (size_t)(py0 + y) * width + (px0 + x);
             if (depth) depth[pix] = st.w[p] > 0 ? st.wz[p] / st.w[p] : 0.0f;
-            if (opacity) opacity[pix] = 1.0f - st.T[p];
+            if (opacity) opacity[pix] = 1.0f - st.px.T[p];
         }
 }
 

@@ -11,8 +11,10 @@
 /* The tile functions are compiled for AVX-512, AVX2 and the baseline (clones.h). */
 #include "splat/clones.h"
 
-/* Helpers that must be inlined into the cloned tile functions. */
-#define SIMD8_INLINE static inline __attribute__((always_inline))
+/* Helpers that must be inlined into the cloned tile functions, declared `static SIMD8_INLINE`:
+ * the `static` stays in sight of whoever reads (or indexes) the file, so a helper is never
+ * taken for a definition another file could call. */
+#define SIMD8_INLINE inline __attribute__((always_inline))
 
 /* The helpers below take 32-byte vectors by value; they are always inlined, so GCC's note
  * about the ABI of such arguments without AVX ("-Wpsabi") does not apply: CMakeLists.txt
@@ -21,63 +23,63 @@
 typedef float f8 __attribute__((vector_size(32)));
 typedef int32_t i8 __attribute__((vector_size(32)));
 
-SIMD8_INLINE f8 f8_splat(float x)
+static SIMD8_INLINE f8 f8_splat(float x)
 {
     return (f8){x, x, x, x, x, x, x, x};
 }
 
-SIMD8_INLINE f8 f8_load(const float *p)
+static SIMD8_INLINE f8 f8_load(const float *p)
 {
     f8 v;
     memcpy(&v, p, sizeof v);
     return v;
 }
 
-SIMD8_INLINE void f8_store(float *p, f8 v)
+static SIMD8_INLINE void f8_store(float *p, f8 v)
 {
     memcpy(p, &v, sizeof v);
 }
 
-SIMD8_INLINE i8 i8_load(const int32_t *p)
+static SIMD8_INLINE i8 i8_load(const int32_t *p)
 {
     i8 v;
     memcpy(&v, p, sizeof v);
     return v;
 }
 
-SIMD8_INLINE void i8_store(int32_t *p, i8 v)
+static SIMD8_INLINE void i8_store(int32_t *p, i8 v)
 {
     memcpy(p, &v, sizeof v);
 }
 
 /* mask ? a : b, lane by lane */
-SIMD8_INLINE f8 f8_select(i8 mask, f8 a, f8 b)
+static SIMD8_INLINE f8 f8_select(i8 mask, f8 a, f8 b)
 {
     return (f8)((mask & (i8)a) | (~mask & (i8)b));
 }
 
 /* mask ? v : 0 */
-SIMD8_INLINE f8 f8_mask(i8 mask, f8 v)
+static SIMD8_INLINE f8 f8_mask(i8 mask, f8 v)
 {
     return (f8)(mask & (i8)v);
 }
 
-SIMD8_INLINE i8 i8_select(i8 mask, i8 a, i8 b)
+static SIMD8_INLINE i8 i8_select(i8 mask, i8 a, i8 b)
 {
     return (mask & a) | (~mask & b);
 }
 
-SIMD8_INLINE f8 f8_min(f8 a, f8 b)
+static SIMD8_INLINE f8 f8_min(f8 a, f8 b)
 {
     return f8_select(a < b, a, b);
 }
 
-SIMD8_INLINE float f8_sum(f8 v)
+static SIMD8_INLINE float f8_sum(f8 v)
 {
     return ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]));
 }
 
-SIMD8_INLINE int i8_any(i8 m)
+static SIMD8_INLINE int i8_any(i8 m)
 {
     typedef int64_t l4 __attribute__((vector_size(32)));
     typedef int64_t l2 __attribute__((vector_size(16)));
@@ -89,7 +91,7 @@ SIMD8_INLINE int i8_any(i8 m)
 }
 
 /* Number of true lanes. */
-SIMD8_INLINE int i8_count(i8 m)
+static SIMD8_INLINE int i8_count(i8 m)
 {
     return -(((m[0] + m[1]) + (m[2] + m[3])) + ((m[4] + m[5]) + (m[6] + m[7])));
 }
@@ -97,7 +99,7 @@ SIMD8_INLINE int i8_count(i8 m)
 /* exp(x) for x <= 0 (Cephes expf: x = n ln 2 + r with |r| <= ln 2 / 2, degree-5 minimax
  * polynomial for e^r, 2^n through the exponent bits; relative error about 1e-7, the
  * accuracy of expf). Below -87 it returns e^-87, far under every threshold that uses it. */
-SIMD8_INLINE f8 f8_exp_neg(f8 x)
+static SIMD8_INLINE f8 f8_exp_neg(f8 x)
 {
     x = f8_select(x > f8_splat(-87.0f), x, f8_splat(-87.0f));
     /* round to nearest by truncation, valid since x <= 0 */

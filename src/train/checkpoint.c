@@ -137,20 +137,21 @@ int gv_dit_param_is_adapter(const gv_dit *m, const char *name)
 }
 
 /* Reads every tensor of m from the file; a base may lack its (zero-start) LoRA adapters.
- * BF16 base weights stay in the file's mapping, which the model then keeps open. */
-static int load_network(gv_st_file *f, gv_dit *m, const gv_train_state *s)
+ * BF16 base weights stay in the file's mapping, which the model must then keep open: *kept
+ * says so (the caller hands the file over once it has read everything else from it). */
+static int load_network(const gv_st_file *f, gv_dit *m, const gv_train_state *s, int *kept)
 {
-    int kept_any = 0;
+    *kept = 0;
     for (int i = 0; i < m->params.n; i++) {
         gv_param *p = m->params.items[i];
         if (!gv_st_find(f, p->t.name) && !strcmp(s->kind, "base") && gv_dit_param_part(m, p->t.name) == GV_PART_LORA)
             continue;
-        int kept = 0;
-        if (gv_dit_read_param(m, f, p, &kept)) return -1;
-        kept_any |= kept;
+        int kept_one = 0;
+        if (gv_dit_read_param(m, f, p, &kept_one)) return -1;
+        *kept |= kept_one;
     }
     if (gv_dit_check_loaded(m)) return gv_fail_context("%s", f->path);
-    return kept_any ? gv_dit_keep_file(m, f) : 0;
+    return 0;
 }
 
 /* The file named vae (metadata "vae" of ckpt, or another file it names): as written, else the
@@ -192,7 +193,7 @@ static int load_vae(const gv_st_file *f, gv_restorer *r)
     if (r->vae.params.n > 0 && gv_st_find(f, r->vae.params.items[0]->t.name)) {
         if (!gv_checkpoint_find_beside(f->path, r->state.vae, r->vae_path, sizeof r->vae_path))
             snprintf(r->vae_path, sizeof r->vae_path, "%s", f->path);
-        return gv_vae_load(&r->vae, f->path, 1);
+        return gv_vae_read(&r->vae, f, 1);
     }
     if (gv_checkpoint_vae_path(f->path, &r->state, r->vae_path, sizeof r->vae_path) || gv_vae_load(&r->vae, r->vae_path, 0))
         return -1;
@@ -203,25 +204,42 @@ static int load_vae(const gv_st_file *f, gv_restorer *r)
     return 0;
 }
 
-int gv_restorer_load(const char *path, gv_restorer *r)
+int gv_restorer_read_network(gv_st_file *f, gv_restorer *r, const gv_model_config *variant)
+{
+    int kept = 0, camera_loaded;
+    /* the DiT and VACE come from the file: no values of their own first (no float32 copy of a
+     * BF16 base) */
+    int rc = gv_dit_init_parts(&r->net, variant ? variant : &r->cfg, 0, GV_PART_DIT | GV_PART_VACE);
+    if (rc == 0)
+        rc = variant ? gv_checkpoint_load_base_open(f, &r->net, 1, &camera_loaded, &kept)
+                     : load_network(f, &r->net, &r->state, &kept);
+    if (rc == 0) rc = load_vae(f, r);
+    if (rc == 0 && !variant) rc = gv_checkpoint_text(f->path, &r->state, &r->net); /* the variant's: loaded with the base */
+    if (rc == 0 && kept) rc = gv_dit_keep_file(&r->net, f); /* BF16 base weights point into it */
+    if (rc == 0) r->loaded = 1;
+    return rc;
+}
+
+int gv_restorer_open(const char *path, gv_restorer_part what, gv_restorer *r)
 {
     gv_st_file f;
     memset(r, 0, sizeof *r);
     if (gv_ckpt_open(&f, path)) return -1;
     int rc = gv_ckpt_read_meta(&f, &r->cfg, &r->state);
     if (rc == 0 && !strcmp(r->state.kind, GV_SCENE_CHECKPOINT_KIND)) { /* adapters over the base it names */
-        gv_st_close(&f);
-        return gv_scene_checkpoint_load(path, r);
+        rc = gv_scene_restorer_open(&f, what, r);
+    } else if (rc == 0) {
+        gv_restorer_read_scenes(r, path, &r->state);
+        if (what != GV_RESTORER_RECORD) rc = gv_restorer_read_network(&f, r, NULL);
     }
-    /* the DiT and VACE come from the file: no values of their own first (no float32 copy of a
-     * BF16 base) */
-    if (rc == 0) rc = gv_dit_init_parts(&r->net, &r->cfg, 0, GV_PART_DIT | GV_PART_VACE);
-    if (rc == 0) rc = load_network(&f, &r->net, &r->state);
-    if (rc == 0) rc = load_vae(&f, r);
-    if (rc == 0) rc = gv_checkpoint_text(path, &r->state, &r->net);
     gv_st_close(&f);
     if (rc) gv_restorer_free(r);
     return rc;
+}
+
+int gv_restorer_load(const char *path, gv_restorer *r)
+{
+    return gv_restorer_open(path, GV_RESTORER_NETWORK, r);
 }
 
 void gv_restorer_free(gv_restorer *r)

@@ -12,18 +12,11 @@
 /* The parts the file's tensors cover: every tensor of m, or only those fine-tuning trains. */
 static const char *parts_text(const gv_dit *m, int adapters_only, char *out, size_t size)
 {
-    static const char *const names[] = {"dit", "vace", "vae", "camera", "lora"};
     unsigned parts = 0;
     for (int i = 0; i < m->params.n; i++)
         if (!adapters_only || gv_dit_param_is_adapter(m, m->params.items[i]->t.name))
             parts |= gv_dit_param_part(m, m->params.items[i]->t.name);
-    out[0] = '\0';
-    for (int i = 0; i < 5; i++)
-        if (parts & (1u << i)) {
-            size_t len = strlen(out);
-            snprintf(out + len, size - len, "%s%s", len ? "," : "", names[i]);
-        }
-    return out;
+    return gv_parts_text(parts, out, size);
 }
 
 static int add_tensor(gv_st_builder *b, const char *prefix, const gv_tensor *t, const float *data)
@@ -129,33 +122,40 @@ static int wanted(const gv_dit *m, const gv_st_file *f, const char *name, int sa
     return (part == GV_PART_DIT || part == GV_PART_VACE) && !s->trainable;
 }
 
-int gv_checkpoint_load_base(const char *path, gv_dit *m, int take_camera, int *camera_loaded)
+int gv_checkpoint_load_base_open(const gv_st_file *f, gv_dit *m, int take_camera, int *camera_loaded, int *kept)
 {
-    gv_st_file f;
     gv_model_config cfg;
     gv_train_state s;
     char have[160], want[160];
-    *camera_loaded = 0;
-    if (gv_ckpt_open(&f, path)) return -1;
-    int rc = gv_ckpt_read_meta(&f, &cfg, &s);
+    *camera_loaded = *kept = 0;
+    int rc = gv_ckpt_read_meta(f, &cfg, &s);
     if (rc == 0 && !gv_config_same_network(&cfg, &m->cfg)) {
         gv_config_describe(&cfg, have, sizeof have);
         gv_config_describe(&m->cfg, want, sizeof want);
-        rc = gv_fail("%s: the base is another network (%s) than the config (%s)", path, have, want);
+        rc = gv_fail("%s: the base is another network (%s) than the config (%s)", f->path, have, want);
     }
-    int kept_any = 0;
     int same_camera = rc == 0 && take_camera && cfg.variant.camera == m->cfg.variant.camera && cfg.variant.camera != GV_CAMERA_NONE;
     for (int i = 0; rc == 0 && i < m->params.n; i++) {
         gv_param *p = m->params.items[i];
-        if (!wanted(m, &f, p->t.name, same_camera)) continue;
-        int kept = 0;
-        rc = gv_dit_read_param(m, &f, p, &kept);
-        kept_any |= kept;
+        if (!wanted(m, f, p->t.name, same_camera)) continue;
+        int kept_one = 0;
+        rc = gv_dit_read_param(m, f, p, &kept_one);
+        *kept |= kept_one;
         if (rc == 0 && gv_dit_param_part(m, p->t.name) == GV_PART_CAMERA) *camera_loaded = 1;
     }
-    if (rc == 0 && gv_dit_check_loaded(m)) rc = gv_fail_context("%s", path);
-    if (rc == 0) rc = gv_checkpoint_text(path, &s, m);
-    if (rc == 0 && kept_any) rc = gv_dit_keep_file(m, &f); /* BF16 base weights point into it */
+    if (rc == 0 && gv_dit_check_loaded(m)) rc = gv_fail_context("%s", f->path);
+    if (rc == 0) rc = gv_checkpoint_text(f->path, &s, m);
+    return rc;
+}
+
+int gv_checkpoint_load_base(const char *path, gv_dit *m, int take_camera, int *camera_loaded)
+{
+    gv_st_file f;
+    int kept;
+    *camera_loaded = 0;
+    if (gv_ckpt_open(&f, path)) return -1;
+    int rc = gv_checkpoint_load_base_open(&f, m, take_camera, camera_loaded, &kept);
+    if (rc == 0 && kept) rc = gv_dit_keep_file(m, &f); /* BF16 base weights point into it */
     gv_st_close(&f);
     return rc;
 }

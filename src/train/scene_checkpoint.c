@@ -28,13 +28,36 @@ int gv_scene_gate_decide(const gv_scene_adaptation *a)
     return gains && harmless;
 }
 
+static int hash_piece(void *ctx, const void *bytes, size_t n)
+{
+    uint64_t *h = ctx;
+    *h = gv_fnv1a64(*h, bytes, n);
+    return 0;
+}
+
+#define CHECKSUM_PIECE (1u << 20) /* bytes read at a time: the memory a checksum takes */
+
 int gv_file_checksum(const char *path, char *out, size_t size)
 {
-    char *bytes;
-    size_t n;
-    if (gv_read_file(path, &bytes, &n)) return -1;
-    snprintf(out, size, "fnv1a64:%016" PRIx64, gv_fnv1a64(GV_FNV_OFFSET, bytes, n));
-    free(bytes);
+    FILE *f = fopen(path, "rb");
+    if (!f) return gv_fail("%s: cannot open: %s", path, strerror(errno));
+    unsigned char *piece = malloc(CHECKSUM_PIECE);
+    uint64_t h = GV_FNV_OFFSET;
+    size_t n = 0;
+    while (piece && (n = fread(piece, 1, CHECKSUM_PIECE, f)) > 0) hash_piece(&h, piece, n);
+    int rc = !piece ? gv_fail("%s: out of memory", path) : ferror(f) ? gv_fail("%s: read error", path) : 0;
+    free(piece);
+    fclose(f);
+    if (rc == 0) snprintf(out, size, "fnv1a64:%016" PRIx64, h);
+    return rc;
+}
+
+/* gv_file_checksum of a file already open, streamed through its mapping. */
+static int open_file_checksum(const gv_st_file *f, char *out, size_t size)
+{
+    uint64_t h = GV_FNV_OFFSET;
+    if (gv_st_stream(f, hash_piece, &h)) return -1;
+    snprintf(out, size, "fnv1a64:%016" PRIx64, h);
     return 0;
 }
 
@@ -203,65 +226,65 @@ int gv_scene_checkpoint_is(const char *path)
     return !strcmp(s.kind, GV_SCENE_CHECKPOINT_KIND);
 }
 
-int gv_scene_checkpoint_base(const char *path, const gv_train_state *state, const gv_scene_adaptation *a, char *out,
-                             size_t size)
+/* The base a scene checkpoint names (metadata "base"): as written, else beside it. */
+static int find_base(const char *path, const gv_train_state *state, char *out, size_t size)
 {
-    const char *base = state->base;
-    if (!*base) return gv_fail("%s: metadata base is missing: no base checkpoint to apply the adapters to", path);
-    char dir[4096];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    if (slash) *slash = '\0';
-    else snprintf(dir, sizeof dir, ".");
-    const char *name = strrchr(base, '/');
-    snprintf(out, size, "%s", base);
-    int found = gv_file_exists(out);
-    if (!found && base[0] != '/') found = gv_path_join(out, size, dir, base) == 0 && gv_file_exists(out);
-    if (!found && name) found = gv_path_join(out, size, dir, name + 1) == 0 && gv_file_exists(out);
-    if (!found)
-        return gv_fail("%s: the base checkpoint it adapts, %s, is not found (neither as written nor beside it)", path, base);
-    char sum[48];
-    if (gv_file_checksum(out, sum, sizeof sum)) return -1;
-    if (strcmp(sum, a->base_checksum))
-        return gv_fail("%s: %s is not the base its adapters were trained on (checksum %s, expected %s)", path, out, sum,
-                       a->base_checksum);
+    if (!*state->base) return gv_fail("%s: metadata base is missing: no base checkpoint to apply the adapters to", path);
+    if (!gv_checkpoint_find_beside(path, state->base, out, size))
+        return gv_fail("%s: the base checkpoint it adapts, %s, is not found (neither as written nor beside it)", path,
+                       state->base);
     return 0;
 }
 
-/* The base's network rebuilt for the variant the adaptation trained (adapt --variant, e.g. the
- * residual output): the base's weights taken as fine-tuning takes a base; the adapters follow. */
-static int rebuild_for_variant(const char *base, const gv_model_config *cfg, gv_dit *net)
+/* The base's network and VAE under the scene checkpoint's config cfg (r holds the base's):
+ * the same config, or another variant of the same network (adapt --variant), which takes the
+ * base's weights as fine-tuning takes a base. Then the adapters from the scene checkpoint f. */
+static int load_over_base(const gv_st_file *f, gv_st_file *base, const gv_model_config *cfg, gv_restorer *r)
 {
-    int camera_loaded;
-    gv_dit_free(net);
-    return gv_dit_init_parts(net, cfg, 0, GV_PART_DIT | GV_PART_VACE) || gv_checkpoint_load_base(base, net, 1, &camera_loaded) ? -1 : 0;
+    char *x = gv_model_config_to_json(cfg), *y = gv_model_config_to_json(&r->cfg);
+    int same = x && y && !strcmp(x, y);
+    free(x), free(y);
+    if (!same && !gv_config_same_network(cfg, &r->cfg))
+        return gv_fail("%s: written for another model config than its base %s", f->path, base->path);
+    if (gv_restorer_read_network(base, r, same ? NULL : cfg)) return -1;
+    return read_adapters(f, &r->net);
 }
 
-int gv_scene_checkpoint_load(const char *path, gv_restorer *r)
+/* Opens the base of scene checkpoint path (r holds its record): found, its checksum the
+ * record's, not itself a scene checkpoint; r's config and state become the base's. */
+static int open_base(const char *path, const gv_train_state *s, gv_st_file *base, gv_restorer *r)
 {
-    gv_st_file f;
-    gv_train_state s, base_state;
-    gv_scene_adaptation a;
-    gv_model_config cfg, base_cfg;
-    char base[4200];
-    memset(r, 0, sizeof *r);
-    if (open_scene(path, &f, &cfg, &s, &a)) return -1;
-    int rc = gv_scene_checkpoint_base(path, &s, &a, base, sizeof base);
-    if (rc == 0) rc = gv_checkpoint_read_info(base, &base_cfg, &base_state);
-    if (rc == 0 && !strcmp(base_state.kind, GV_SCENE_CHECKPOINT_KIND))
-        rc = gv_fail("%s: its base %s is itself a scene checkpoint", path, base);
-    if (rc == 0) rc = gv_restorer_load(base, r); /* the base first: network, VAE, vae_path */
+    if (find_base(path, s, r->base_path, sizeof r->base_path) || gv_ckpt_open(base, r->base_path)) return -1;
+    int rc = open_file_checksum(base, r->base_checksum, sizeof r->base_checksum);
+    if (rc == 0 && strcmp(r->base_checksum, r->adaptation.base_checksum))
+        rc = gv_fail("%s: %s is not the base its adapters were trained on (checksum %s, expected %s)", path,
+                     r->base_path, r->base_checksum, r->adaptation.base_checksum);
+    if (rc == 0) rc = gv_ckpt_read_meta(base, &r->cfg, &r->state); /* the base's, for its network and VAE */
+    if (rc == 0 && !strcmp(r->state.kind, GV_SCENE_CHECKPOINT_KIND))
+        rc = gv_fail("%s: its base %s is itself a scene checkpoint", path, r->base_path);
+    if (rc) gv_st_close(base);
+    return rc;
+}
+
+int gv_scene_restorer_open(gv_st_file *f, gv_restorer_part what, gv_restorer *r)
+{
+    gv_model_config cfg = r->cfg; /* the scene checkpoint's, r's again at the end */
+    gv_train_state s = r->state;
+    gv_st_file base;
+    r->scene = 1;
+    if (read_record(f, &r->adaptation)) return -1;
+    int network = what == GV_RESTORER_NETWORK || (what == GV_RESTORER_NETWORK_IF_GATE_OPEN && r->adaptation.gate_open);
+    int rc = open_base(f->path, &s, &base, r);
     if (rc == 0) {
-        char *x = gv_model_config_to_json(&cfg), *y = gv_model_config_to_json(&r->cfg);
-        int same = x && y && !strcmp(x, y);
-        free(x), free(y);
-        if (!same && !gv_config_same_network(&cfg, &r->cfg))
-            rc = gv_fail("%s: written for another model config than its base %s", path, base);
-        else if (!same) rc = rebuild_for_variant(base, &cfg, &r->net); /* adapt --variant */
+        /* adapted from its own scene's training views: what it saw beyond them is its base's */
+        gv_restorer_read_scenes(r, r->base_path, &r->state);
+        if (network) rc = load_over_base(f, &base, &cfg, r);
+        gv_st_close(&base);
+    } else if (!network) { /* the record alone stands; what the base would tell is unknown */
+        r->scenes_known = -1;
+        snprintf(r->scenes_error, sizeof r->scenes_error, "%s", gv_last_error());
+        rc = 0;
     }
-    if (rc == 0) rc = read_adapters(&f, &r->net);
-    gv_st_close(&f);
-    if (rc == 0) r->cfg = cfg, r->state = s; /* the scene checkpoint's own record (kind "scene") */
-    if (rc) gv_restorer_free(r);
+    r->cfg = cfg, r->state = s; /* the scene checkpoint's own record (kind "scene") */
     return rc;
 }

@@ -13,6 +13,20 @@ int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state 
 /* A file a checkpoint names (its VAE, its text context): as written, else the same relative
  * path or file name in the checkpoint's folder, into out. 1 when found, else 0. */
 int gv_checkpoint_find_beside(const char *ckpt, const char *named, char *out, size_t size);
+/* training_scenes.c: r's training scenes from the state of checkpoint ckpt (metadata "scenes",
+ * else the record beside the file); a bad record sets scenes_known -1 and scenes_error. */
+void gv_restorer_read_scenes(gv_restorer *r, const char *ckpt, const gv_train_state *s);
+/* checkpoint.c: the network, the VAE and the text context of checkpoint f, whose config and
+ * state r holds; variant (or NULL): the config of an adaptation's variant (adapt --variant),
+ * whose network takes f's weights as fine-tuning takes a base's. f may be handed to the
+ * network (its BF16 weights stay mapped); gv_st_close of f is then a no-op. */
+int gv_restorer_read_network(gv_st_file *f, gv_restorer *r, const gv_model_config *variant);
+/* scene_checkpoint.c: the rest of gv_restorer_open for a scene checkpoint f, whose config and
+ * state r holds: its record, its base (opened once) and, as what asks, the network. */
+int gv_scene_restorer_open(gv_st_file *f, gv_restorer_part what, gv_restorer *r);
+/* checkpoint_state.c: gv_checkpoint_load_base from an open base, with its text context; *kept:
+ * BF16 weights point into f's mapping, which the caller must hand to m (gv_dit_keep_file). */
+int gv_checkpoint_load_base_open(const gv_st_file *f, gv_dit *m, int take_camera, int *camera_loaded, int *kept);
 /* The part (GV_PART_*) of a network tensor, from the model's weight list. */
 unsigned gv_dit_param_part(const gv_dit *m, const char *name);
 /* 1 for a tensor fine-tuning trains (the adapters a scene checkpoint holds). */

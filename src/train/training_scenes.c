@@ -117,30 +117,19 @@ static int read_beside(const char *ckpt, const gv_train_state *s, char *out, siz
     return 1;
 }
 
-int gv_checkpoint_training_scenes(const char *ckpt, char *out, size_t size)
+void gv_restorer_read_scenes(gv_restorer *r, const char *ckpt, const gv_train_state *s)
 {
-    gv_model_config cfg;
-    gv_train_state s;
-    if (gv_checkpoint_read_info(ckpt, &cfg, &s)) return -1;
-    if (!strcmp(s.kind, GV_SCENE_CHECKPOINT_KIND)) {
-        /* adapted from its own scene's training views: what it saw beyond them is its base's */
-        gv_scene_adaptation a;
-        char base[4200];
-        if (gv_scene_checkpoint_read(ckpt, &a) || gv_scene_checkpoint_base(ckpt, &s, &a, base, sizeof base)) return -1;
-        return gv_checkpoint_training_scenes(base, out, size);
-    }
-    if (!s.scenes[0]) return read_beside(ckpt, &s, out, size);
-    snprintf(out, size, "%s", s.scenes);
-    return 1;
+    r->training_scenes[0] = r->scenes_error[0] = '\0';
+    r->scenes_known = s->scenes[0] ? 1 : read_beside(ckpt, s, r->training_scenes, sizeof r->training_scenes);
+    if (s->scenes[0]) snprintf(r->training_scenes, sizeof r->training_scenes, "%s", s->scenes);
+    if (r->scenes_known < 0) snprintf(r->scenes_error, sizeof r->scenes_error, "%s", gv_last_error());
 }
 
-int gv_warn_if_trained_on(const char *ckpt, const char *scene)
+int gv_warn_if_trained_on(const gv_restorer *r, const char *ckpt, const char *scene)
 {
-    char scenes[GV_CHECKPOINT_SCENES];
-    int known = gv_checkpoint_training_scenes(ckpt, scenes, sizeof scenes);
-    if (known < 0) return -1;
-    if (known && gv_scene_list_has(scenes, scene))
+    if (r->scenes_known < 0) return gv_fail("%s", r->scenes_error);
+    if (r->scenes_known && gv_scene_list_has(r->training_scenes, scene))
         gv_warn("scene '%s' was in the restorer's training set (%s: %s): its numbers do not measure generalisation",
-                scene, ckpt, scenes);
+                scene, ckpt, r->training_scenes);
     return 0;
 }

@@ -38,11 +38,13 @@ expect 0 "listed" -- "$G" help
 has "reconstruct"
 expect 2 "no scene" -- "$G" reconstruct --interval 6 --out X
 expect 2 "bad interval" -- "$G" reconstruct --scene S --interval 6,x --out X
-one_line "--interval 6,x"
+one_line "intervals '6,x': expected a number at 'x'"
 expect 2 "interval 0" -- "$G" reconstruct --scene S --interval 0 --out X
-one_line "--interval 0"
-expect 1 "interval 3" -- "$G" reconstruct "${RC[@]}" --interval 3 --out X
-one_line "n must be 1"
+one_line "interval 0: reconstruct takes n = 1 or 4 <= n <= 100000"
+expect 2 "interval repeated" -- "$G" reconstruct --scene S --interval 4,6,4 --out X
+one_line "intervals '4,6,4': 4 is listed twice"
+expect 2 "interval 3" -- "$G" reconstruct "${RC[@]}" --interval 3 --out X
+one_line "interval 3: reconstruct takes n = 1 or 4 <= n <= 100000 (a clip restores 3 held-out frames"
 expect 1 "missing scene" -- "$G" reconstruct "${RC[@]}" --scene nowhere --out X
 one_line "nowhere"
 expect 1 "missing checkpoint" -- "$G" reconstruct "${RC[@]}" --ckpt none.safetensors --out X

@@ -42,6 +42,10 @@ has "extent      1.1 (all frames)"
 has "split       interval 2: 2 training frames, 1 held out"
 has "training    0 2"
 if [ ! -s "$T/err" ]; then ok; else bad "--quiet still wrote to stderr: $(cat "$T/err")"; fi
+# n = 2 splits, but reconstruct refuses it: the note says what reconstruct takes on 3 frames.
+has "note        interval 2: reconstruct takes n = 1 on this scene"
+expect 0 "an n reconstruct takes: no note" -- "$G" scene info "$S" --interval 1 --quiet
+if ! grep -q "note" "$T/out"; then ok; else bad "a note for n = 1: $(grep note "$T/out")"; fi
 
 expect 0 "tiny scene --json" -- "$G" scene info "$S" --interval 2 --json --downscale 2
 for key in '"dir":' '"source":	"transforms"' '"image_dir":' '"downscale":	2' '"frames":	3' \
@@ -59,6 +63,8 @@ expect 1 "missing folder" -- "$G" scene info "$T/nowhere"
 one_line "nowhere: no such scene folder"
 expect 1 "too few frames for the interval" -- "$G" scene info "$S" --interval 3
 one_line "interval 3 leaves 1 training frame of the scene's 3 frames"
+# The advice is what reconstruct takes (issue 41: not "an interval of at most 2", which it refuses).
+one_line "at least 2 are needed: reconstruct takes n = 1 on this scene"
 mkdir -p "$T/empty"
 expect 1 "no description" -- "$G" scene info "$T/empty"
 one_line "no scene description"
