@@ -101,8 +101,10 @@ typedef enum { GV_COMPOSE_DECODED, GV_COMPOSE_RESIDUAL, GV_COMPOSE_UNSEEN } gv_c
 /* "decoded", "residual" or "unseen", and back. */
 const char *gv_compose_name(gv_compose c);
 int gv_compose_from_name(const char *name, gv_compose *out);
-/* The restored clip: out [5, H, W, 3] 8-bit (the clip's layout). z_restored holds
- * gv_clip_latents_z_count(l) floats; l is the clip's conditioning (its z_corrupt). */
+/* The restored clip: out [5, H, W, 3] 8-bit (the clip's layout and size). z_restored holds
+ * gv_clip_latents_z_count(l) floats; l is the clip's conditioning (its z_corrupt). A clip off
+ * the network's block (condition.h) has latents of its padded size: it is composed padded and
+ * cropped back, so out is always the clip's own size. */
 int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *l, const float *z_restored,
                        gv_compose mode, uint8_t *out);
 
