@@ -153,27 +153,31 @@ static int load_network(gv_st_file *f, gv_dit *m, const gv_train_state *s)
     return kept_any ? gv_dit_keep_file(m, f) : 0;
 }
 
-/* The file named vae (metadata "vae" of ckpt, or another file it names): as written, else the
- * same relative path or file name in the checkpoint's folder, into out. 1 when found, else 0. */
-int gv_checkpoint_find_beside(const char *ckpt, const char *vae, char *out, size_t size)
+/* The file named (metadata "vae" of ckpt, or another file it names): as written, else the same
+ * relative path or file name in the checkpoint's folder, else the file name in the model
+ * folders, into out. 1 when found, else 0. */
+int gv_checkpoint_find_beside(const char *ckpt, const char *named, char *out, size_t size)
 {
-    snprintf(out, size, "%s", vae);
-    if (*vae && gv_file_exists(out)) return 1;
+    if (!*named) return 0;
+    snprintf(out, size, "%s", named);
+    if (gv_file_exists(out)) return 1;
     char dir[4096];
     snprintf(dir, sizeof dir, "%s", ckpt);
     char *slash = strrchr(dir, '/');
     if (slash) *slash = '\0';
     else snprintf(dir, sizeof dir, ".");
-    const char *base = strrchr(vae, '/');
-    if (*vae && vae[0] != '/' && gv_path_join(out, size, dir, vae) == 0 && gv_file_exists(out)) return 1;
-    return base && gv_path_join(out, size, dir, base + 1) == 0 && gv_file_exists(out);
+    const char *base = strrchr(named, '/');
+    const char *file = base ? base + 1 : named;
+    if (named[0] != '/' && gv_path_join(out, size, dir, named) == 0 && gv_file_exists(out)) return 1;
+    if (base && gv_path_join(out, size, dir, file) == 0 && gv_file_exists(out)) return 1;
+    return *file && gv_find_model(file, out, size);
 }
 
 int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out, size_t size)
 {
     if (!*s->vae) return gv_fail("%s: metadata vae is missing and the file holds no VAE tensors", ckpt);
     if (gv_checkpoint_find_beside(ckpt, s->vae, out, size)) return 0;
-    return gv_fail("%s: the VAE it names, %s, is not found (neither as written nor beside the checkpoint)", ckpt, s->vae);
+    return gv_fail("%s: the VAE it names, %s, is not found (looked " GV_CHECKPOINT_LOOKED ")", ckpt, s->vae);
 }
 
 /* The VAE: its tensors in the file (r->vae_path is then the file the metadata names if there is

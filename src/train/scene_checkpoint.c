@@ -208,18 +208,10 @@ int gv_scene_checkpoint_base(const char *path, const gv_train_state *state, cons
 {
     const char *base = state->base;
     if (!*base) return gv_fail("%s: metadata base is missing: no base checkpoint to apply the adapters to", path);
-    char dir[4096];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    if (slash) *slash = '\0';
-    else snprintf(dir, sizeof dir, ".");
-    const char *name = strrchr(base, '/');
-    snprintf(out, size, "%s", base);
-    int found = gv_file_exists(out);
-    if (!found && base[0] != '/') found = gv_path_join(out, size, dir, base) == 0 && gv_file_exists(out);
-    if (!found && name) found = gv_path_join(out, size, dir, name + 1) == 0 && gv_file_exists(out);
-    if (!found)
-        return gv_fail("%s: the base checkpoint it adapts, %s, is not found (neither as written nor beside it)", path, base);
+    /* found as the VAE is, and checked by the checksum of its bytes */
+    if (!gv_checkpoint_find_beside(path, base, out, size))
+        return gv_fail("%s: the base checkpoint it adapts, %s, is not found (looked " GV_CHECKPOINT_LOOKED ")", path,
+                       base);
     char sum[48];
     if (gv_file_checksum(out, sum, sizeof sum)) return -1;
     if (strcmp(sum, a->base_checksum))
