@@ -154,8 +154,8 @@ static int load_network(gv_st_file *f, gv_dit *m, const gv_train_state *s)
 }
 
 /* The file named (metadata "vae" of ckpt, or another file it names): as written, else the same
- * relative path or file name in the checkpoint's folder, else the file name in the model
- * folders, into out. 1 when found, else 0. */
+ * relative path or file name in the checkpoint's folder (1), else the file name in the model
+ * folders (2), into out; 0 when not found. */
 int gv_checkpoint_find_beside(const char *ckpt, const char *named, char *out, size_t size)
 {
     if (!*named) return 0;
@@ -170,7 +170,7 @@ int gv_checkpoint_find_beside(const char *ckpt, const char *named, char *out, si
     const char *file = base ? base + 1 : named;
     if (named[0] != '/' && gv_path_join(out, size, dir, named) == 0 && gv_file_exists(out)) return 1;
     if (base && gv_path_join(out, size, dir, file) == 0 && gv_file_exists(out)) return 1;
-    return *file && gv_find_model(file, out, size);
+    return *file && gv_find_model(file, out, size) ? 2 : 0;
 }
 
 int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out, size_t size)
@@ -198,10 +198,20 @@ static int load_vae(const gv_st_file *f, gv_restorer *r)
             snprintf(r->vae_path, sizeof r->vae_path, "%s", f->path);
         return gv_vae_load(&r->vae, f->path, 1);
     }
-    if (gv_checkpoint_vae_path(f->path, &r->state, r->vae_path, sizeof r->vae_path) || gv_vae_load(&r->vae, r->vae_path, 0))
-        return -1;
-    gv_checkpoint_vae_checksum(&r->vae, sum, sizeof sum);
-    if (*r->state.vae_checksum && strcmp(sum, r->state.vae_checksum))
+    int where = *r->state.vae ? gv_checkpoint_find_beside(f->path, r->state.vae, r->vae_path, sizeof r->vae_path) : 0;
+    if (!where) return gv_checkpoint_vae_path(f->path, &r->state, r->vae_path, sizeof r->vae_path);
+    int rc = gv_vae_load(&r->vae, r->vae_path, 0), other = 0;
+    if (rc == 0) {
+        gv_checkpoint_vae_checksum(&r->vae, sum, sizeof sum);
+        other = *r->state.vae_checksum && strcmp(sum, r->state.vae_checksum);
+    }
+    /* a file of that name in the model folders (e.g. the released vae.safetensors) that is not
+     * this VAE: the one named is not found */
+    if (where == 2 && (rc || other))
+        return gv_fail("%s: the VAE it names, %s, is not found (looked " GV_CHECKPOINT_LOOKED "; %s there is another VAE)",
+                       f->path, r->state.vae, r->vae_path);
+    if (rc) return -1;
+    if (other)
         return gv_fail("%s: the VAE %s is not the one it was trained with (checksum %s, expected %s)", f->path, r->vae_path,
                        sum, r->state.vae_checksum);
     return 0;

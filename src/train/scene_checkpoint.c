@@ -209,11 +209,15 @@ int gv_scene_checkpoint_base(const char *path, const gv_train_state *state, cons
     const char *base = state->base;
     if (!*base) return gv_fail("%s: metadata base is missing: no base checkpoint to apply the adapters to", path);
     /* found as the VAE is, and checked by the checksum of its bytes */
-    if (!gv_checkpoint_find_beside(path, base, out, size))
+    int where = gv_checkpoint_find_beside(path, base, out, size);
+    if (!where)
         return gv_fail("%s: the base checkpoint it adapts, %s, is not found (looked " GV_CHECKPOINT_LOOKED ")", path,
                        base);
     char sum[48];
     if (gv_file_checksum(out, sum, sizeof sum)) return -1;
+    if (where == 2 && strcmp(sum, a->base_checksum))
+        return gv_fail("%s: the base checkpoint it adapts, %s, is not found (looked " GV_CHECKPOINT_LOOKED
+                       "; %s there is another checkpoint)", path, base, out);
     if (strcmp(sum, a->base_checksum))
         return gv_fail("%s: %s is not the base its adapters were trained on (checksum %s, expected %s)", path, out, sum,
                        a->base_checksum);
