@@ -10,7 +10,7 @@ FUZZ_SECONDS ?= 60
 FUZZ_SEED ?=
 DEMO := demo
 
-.PHONY: all setup build run test test-asan fuzz bench clean
+.PHONY: all setup build run install test test-asan fuzz bench clean
 
 all: build
 
@@ -25,6 +25,14 @@ build: setup
 # scripts/demo.sh (its GV_DEMO_* variables change the scene, n and iterations).
 run: build
 	@bash scripts/demo.sh $(BUILD)/gaussvid $(DEMO)
+
+# `make install PREFIX=DIR` (default /usr/local): the program in DIR/bin, the released models in
+# DIR/share/gaussvid, where the program finds them from any folder (docs/RECONSTRUCT.md).
+PREFIX ?= /usr/local
+install: setup
+	@cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=$(PREFIX) >/dev/null
+	@cmake --build $(BUILD) -j $(JOBS)
+	@cmake --install $(BUILD)
 
 # Tests run two at a time on two cores: OpenMP threads must sleep, not spin, while they
 # wait (a spinning wait made 2-thread tests 5-25x slower when oversubscribed).

@@ -2,7 +2,7 @@
  * against its own encoding of the pixels the spec says (ground truth, input, inactive and
  * reactive parts for every anchors variant), the mask channels, the Plücker field against the
  * ray formula, windows of a clip (crops), the per-frame layout; the latent cache (round trip, reuse, selective
- * re-encoding, invalidation by another VAE or a damaged file); and bad inputs. */
+ * re-encoding, invalidation by another VAE or a damaged file); any size (padding); and bad inputs. */
 #include <sys/stat.h>
 
 #include <omp.h>
@@ -310,14 +310,9 @@ static void test_bad_inputs(const char *tmp)
     CHECK(rf_tiny(&cfg, &vae, NULL, 10) == 0);
     gv_clip clip;
     gv_clip_latents l;
-    /* 20 is not a multiple of the spatial factor 8; 40 gives 5 latent columns, not a multiple of the patch 2 */
-    CHECK(rf_make_clip(&clip, "room", "train", 6, 20, 32, 5, 1) == 0);
-    CHECK_FAILS_WITH(gv_clip_latents_prepare(&vae, &cfg, &clip, &l), "spatial factor");
-    CHECK(strstr(gv_last_error(), "clip room n6"));
-    gv_clip_free(&clip);
-    CHECK(rf_make_clip(&clip, "room", "train", 6, 40, 32, 5, 1) == 0);
-    CHECK_FAILS_WITH(gv_clip_latents_prepare(&vae, &cfg, &clip, &l), "DiT patch");
-    gv_clip_free(&clip);
+    /* no size but an empty one is refused (gv_clip_alloc refuses those before) */
+    int pw, ph;
+    CHECK_FAILS_WITH(gv_condition_padded_size(&cfg, 0, 5, &pw, &ph), "at least one pixel");
     CHECK(rf_make_clip(&clip, "room", "train", 6, W, H, 5, 1) == 0);
     gv_model_config small;
     CHECK(gv_model_config_preset(&small, "small") == 0);
@@ -345,12 +340,60 @@ static void test_bad_inputs(const char *tmp)
     CHECK(s.count == 0 && s.clips == NULL);
     CHECK(remove(path) == 0);
     CHECK_FAILS_WITH(gv_latent_set_load(dir, NULL, NULL, &vae, &cfg, &s), "gamma_n08_001.safetensors");
-    /* clips of a size the model cannot take */
+    /* clips of a size off the block (which the cache refused before padding) load padded, as
+     * gv_clip_latents_prepare makes them */
     snprintf(dir, sizeof dir, "%s/odd", tmp);
-    CHECK(rf_make_dataset(dir, specs, 1, 20, 32, 20) == 0);
-    CHECK_FAILS_WITH(gv_latent_set_load(dir, NULL, NULL, &vae, &cfg, &s), "spatial factor");
-    CHECK(strstr(gv_last_error(), "gamma_n06_000.safetensors") != NULL);
+    CHECK(rf_make_dataset(dir, specs, 1, 20, 37, 20) == 0);
+    CHECK(gv_latent_set_load(dir, NULL, NULL, &vae, &cfg, &s) == 0 && s.count == 1);
+    snprintf(path, sizeof path, "%s/%s", dir, s.names[0]);
+    CHECK(gv_clip_read(path, &clip) == 0 && gv_clip_latents_prepare(&vae, &cfg, &clip, &l) == 0);
+    CHECK(s.clips[0].width == 32 && s.clips[0].height == 48 && l.width == 32 && l.height == 48 &&
+          !memcmp(l.z_clean, s.clips[0].z_clean, (size_t)gv_clip_latents_z_count(&l) * 4) &&
+          !memcmp(l.plucker, s.clips[0].plucker, (size_t)gv_clip_latents_plucker_count(&l) * 4));
+    gv_clip_latents_free(&l), gv_clip_free(&clip), gv_latent_set_free(&s);
     gv_vae_free(&vae);
+}
+
+/* Any size (condition.h): a clip off the tiny preset's 16-pixel block gives the latents of the
+ * clip padded by reflection (gv_clip_pad), bit for bit, at the next multiple of 16; with the
+ * coverage variant its mask comes from the padded plane. Odd sizes and 1-pixel edges. */
+static void test_padding(void)
+{
+    const char *variants[3] = {NULL, "per-frame", "coverage"};
+    const int sizes[][2] = {{20, 32}, {40, 32}, {37, 23}, {1, 1}, {1, 17}, {17, 1}, {32, 32}};
+    for (int v = 0; v < 3; v++)
+        for (int k = 0; k < 7; k++) {
+            gv_model_config cfg;
+            gv_vae vae;
+            CHECK(rf_tiny(&cfg, &vae, variants[v], 40 + v) == 0);
+            const int w = sizes[k][0], h = sizes[k][1], pw = (w + 15) / 16 * 16, ph = (h + 15) / 16 * 16;
+            int gw = 0, gh = 0;
+            CHECK(gv_condition_padded_size(&cfg, w, h, &gw, &gh) == 0 && gw == pw && gh == ph);
+            gv_clip clip, padded;
+            CHECK(rf_make_clip(&clip, "room", "train", 6, w, h, 30, 7 + k) == 0);
+            if (v == 2) { /* a coverage plane that varies along both axes */
+                clip.coverage = malloc((size_t)(3 * w * h));
+                for (int i = 0; i < 3 * w * h; i++) clip.coverage[i] = (uint8_t)((i * 5 + i / 3) % 4);
+            }
+            CHECK(gv_clip_pad(&clip, pw, ph, &padded) == 0 && padded.info.width == pw && padded.info.height == ph);
+            CHECK(!memcmp(padded.intrinsics, clip.intrinsics, sizeof clip.intrinsics));
+            CHECK((v == 2) == (padded.coverage != NULL));
+            /* cropping the padded frames gives the clip's frames back */
+            uint8_t *back = malloc((size_t)(5 * 3 * w * h));
+            CHECK(gv_clip_crop_frames(padded.inputs, pw, ph, &clip.info, back) == 0 &&
+                  !memcmp(back, clip.inputs, (size_t)(5 * 3 * w * h)));
+            gv_clip_latents a, b;
+            CHECK(gv_clip_latents_prepare(&vae, &cfg, &clip, &a) == 0 && gv_clip_latents_prepare(&vae, &cfg, &padded, &b) == 0);
+            CHECK(a.width == pw && a.height == ph && a.lw == pw / 8 && a.lh == ph / 8);
+            const int64_t nz = gv_clip_latents_z_count(&a), nv = gv_clip_latents_vace_count(&a);
+            CHECK(nz == gv_clip_latents_z_count(&b) && !memcmp(a.z_clean, b.z_clean, (size_t)nz * 4) &&
+                  !memcmp(a.z_corrupt, b.z_corrupt, (size_t)nz * 4) && !memcmp(a.vace, b.vace, (size_t)nv * 4) &&
+                  !memcmp(a.plucker, b.plucker, (size_t)gv_clip_latents_plucker_count(&a) * 4));
+            gv_clip_latents_free(&a), gv_clip_latents_free(&b);
+            free(back);
+            gv_clip_free(&padded), gv_clip_free(&clip);
+            gv_vae_free(&vae);
+        }
 }
 
 int main(void)
@@ -364,5 +407,6 @@ int main(void)
     test_per_frame();
     test_cache(tmp);
     test_bad_inputs(tmp);
+    test_padding();
     return check_summary();
 }

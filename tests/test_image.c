@@ -1,6 +1,6 @@
 /* Image I/O: PNG round trips for every channel count, PNGs of other layouts and a JPEG
- * written here directly through libpng/libjpeg, malformed files, downscaling and the float
- * conversions. */
+ * written here directly through libpng/libjpeg, malformed files, downscaling, the float
+ * conversions and reflection padding. */
 #include <png.h>
 #include <stdio.h>
 #include <jpeglib.h>
@@ -418,6 +418,47 @@ static void test_text(void)
     gv_image_free(&img);
 }
 
+/* Reflection padding: the mirror index by hand, a 3x2 image padded to 5x4 by hand, and pad
+ * then crop returning the input exactly at odd sizes and 1-pixel edges. */
+static void test_pad_crop(void)
+{
+    const int want4[10] = {0, 1, 2, 3, 2, 1, 0, 1, 2, 3}, want2[5] = {0, 1, 0, 1, 0};
+    for (int i = 0; i < 10; i++) CHECK(gv_reflect_index(i, 4) == want4[i]);
+    for (int i = 0; i < 5; i++) CHECK(gv_reflect_index(i, 2) == want2[i] && gv_reflect_index(i, 1) == 0);
+    CHECK(gv_reflect_index(-1, 4) == 1 && gv_reflect_index(-3, 4) == 3);
+    /* 1 2 3    1 2 3 2 1
+     * 4 5 6 -> 4 5 6 5 4
+     *           1 2 3 2 1
+     *           4 5 6 5 4  (rows mirror with period 2 for a height of 2) */
+    uint8_t px[6] = {1, 2, 3, 4, 5, 6}, big[20], back[6];
+    const uint8_t want[20] = {1, 2, 3, 2, 1, 4, 5, 6, 5, 4, 1, 2, 3, 2, 1, 4, 5, 6, 5, 4};
+    gv_image in = {3, 2, 1, px}, out = {5, 4, 1, big}, crop = {3, 2, 1, back};
+    CHECK(gv_image_pad_reflect(&in, &out) == 0 && !memcmp(big, want, sizeof want));
+    CHECK(gv_image_crop(&out, &crop) == 0 && !memcmp(back, px, sizeof px));
+    CHECK_FAILS_WITH(gv_image_pad_reflect(&out, &in), "does not pad to");
+    CHECK_FAILS_WITH(gv_image_crop(&in, &out), "does not crop to");
+    gv_image three = {5, 4, 3, big};
+    CHECK_FAILS_WITH(gv_image_pad_reflect(&in, &three), "does not pad to");
+    /* round trips: odd sizes, 1-pixel rows and columns, padding wider than the image */
+    const int sizes[][4] = {{37, 23, 48, 32}, {1, 1, 16, 16}, {1, 17, 16, 32}, {17, 1, 32, 16}, {2, 3, 33, 31}, {16, 16, 16, 16}};
+    for (int k = 0; k < 6; k++) {
+        int w = sizes[k][0], h = sizes[k][1], W = sizes[k][2], H = sizes[k][3];
+        gv_image a, p, c;
+        CHECK(gv_image_alloc(&a, w, h, 3) == 0 && gv_image_alloc(&p, W, H, 3) == 0 && gv_image_alloc(&c, w, h, 3) == 0);
+        for (int i = 0; i < w * h * 3; i++) a.pixels[i] = (uint8_t)(i * 37 + k);
+        CHECK(gv_image_pad_reflect(&a, &p) == 0 && gv_image_crop(&p, &c) == 0);
+        CHECK(!memcmp(a.pixels, c.pixels, (size_t)w * h * 3));
+        /* every padded pixel is the image pixel it mirrors */
+        int bad = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++)
+                bad += memcmp(p.pixels + ((size_t)y * W + x) * 3,
+                              a.pixels + ((size_t)gv_reflect_index(y, h) * w + gv_reflect_index(x, w)) * 3, 3) != 0;
+        CHECK(bad == 0);
+        gv_image_free(&a), gv_image_free(&p), gv_image_free(&c);
+    }
+}
+
 int main(void)
 {
     snprintf(tmp, sizeof tmp, "%s", check_tmp_dir());
@@ -429,5 +470,6 @@ int main(void)
     test_downscale();
     test_float_conversion();
     test_text();
+    test_pad_crop();
     return check_summary();
 }

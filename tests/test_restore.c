@@ -2,7 +2,8 @@
  * on exact velocities (one step returns z0*; Euler ends at (1 - t0) z-hat + t0 z0*, docs/ARCHITECTURE.md 7),
  * noise averaging, reproducibility, the camera cache, both compositions against our own
  * decoding, the identity check (residual composition gives the baseline exactly), the
- * evaluation table against PSNR computed here, its JSON and Markdown, and bad inputs. */
+ * evaluation table against PSNR computed here, its JSON and Markdown, bad inputs, and clips of
+ * odd sizes (padded to the network's block and cropped back). */
 #include <cjson/cJSON.h>
 
 #include <omp.h>
@@ -537,14 +538,20 @@ static void test_runs(const char *tmp)
     snprintf(path, sizeof path, "%s/nothing.safetensors", tmp);
     const char *missing[1] = {path};
     CHECK_FAILS_WITH(gv_restore_files(&s.r, missing, 1, &o), "nothing.safetensors");
+    /* a clip off the network's block (refused before padding) restores at its own size */
     gv_clip odd;
-    CHECK(rf_make_clip(&odd, "room", "eval", 6, 20, 32, 5, 1) == 0);
+    CHECK(rf_make_clip(&odd, "room", "eval", 6, 21, 33, 5, 1) == 0);
     snprintf(path, sizeof path, "%s/odd.safetensors", tmp);
     CHECK(gv_clip_write(path, &odd) == 0);
     gv_clip_free(&odd);
     const char *odd_path[1] = {path};
-    CHECK_FAILS_WITH(gv_restore_files(&s.r, odd_path, 1, &o), "spatial factor");
-    CHECK(strstr(gv_last_error(), "odd.safetensors") != NULL);
+    o.out_dir = out;
+    CHECK(gv_restore_files(&s.r, odd_path, 1, &o) == 0);
+    gv_image img;
+    snprintf(path, sizeof path, "%s/odd/f2.png", out);
+    CHECK(gv_image_read(path, &img) == 0 && img.width == 21 && img.height == 33);
+    gv_image_free(&img);
+    o.out_dir = NULL;
     o.split = "test";
     CHECK_FAILS_WITH(gv_restore_dataset(&s.r, dir, &o), "no test clips");
     o.split = "eval";
@@ -610,6 +617,63 @@ static void test_bad_specs(void)
     setup_free(&st);
 }
 
+/* Any size (condition.h): clips of odd sizes and 1-pixel edges restored by the network come
+ * back at their own size; the identity under residual composition is the input exactly (the
+ * crop undoes the padding); decoded composition equals that of the clip padded by hand,
+ * cropped; the unseen composition keeps the render where an anchor sees the pixel. */
+static void test_odd_sizes(void)
+{
+    const int sizes[][2] = {{37, 23}, {1, 1}, {1, 17}, {17, 1}};
+    const char *variants[2] = {NULL, "per-frame"};
+    for (int v = 0; v < 2; v++)
+        for (int k = 0; k < 4; k++) {
+            setup s;
+            memset(&s, 0, sizeof s);
+            const int w = sizes[k][0], h = sizes[k][1];
+            const int64_t fb = (int64_t)w * h * 3;
+            CHECK(rf_tiny(&s.r.cfg, &s.r.vae, variants[v], 50 + k) == 0 && gv_dit_init(&s.r.net, &s.r.cfg, 50 + k) == 0);
+            mt_randomize(&s.r.net, MT_ALL, 51 + k);
+            CHECK(rf_make_clip(&s.clip, "room", "eval", 6, w, h, 40, 9 + k) == 0);
+            CHECK(gv_clip_latents_prepare(&s.r.vae, &s.r.cfg, &s.clip, &s.l) == 0);
+            const int64_t n = gv_clip_latents_z_count(&s.l);
+            float *z = malloc((size_t)n * 4);
+            uint8_t *out = malloc((size_t)(5 * fb)), *want = malloc((size_t)(5 * fb));
+            gv_sampler sp;
+            CHECK(gv_sampler_from_name("identity", &sp) == 0 && gv_restore_latent(&s.r.net, &s.l, &sp, 3, z) == 0);
+            CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_RESIDUAL, out) == 0);
+            CHECK(!memcmp(out, s.clip.inputs, (size_t)(5 * fb)));
+            /* the network's restoration: anchors kept, intermediates changed somewhere */
+            CHECK(gv_sampler_from_name("onestep", &sp) == 0 && gv_restore_latent(&s.r.net, &s.l, &sp, 3, z) == 0);
+            CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_DECODED, out) == 0);
+            CHECK(!memcmp(out, s.clip.inputs, (size_t)fb) && !memcmp(out + 4 * fb, s.clip.inputs + 4 * fb, (size_t)fb));
+            CHECK(memcmp(out + fb, s.clip.inputs + fb, (size_t)(3 * fb)) != 0);
+            /* the same as composing the clip padded by hand, then cropping */
+            gv_clip padded;
+            CHECK(gv_clip_pad(&s.clip, s.l.width, s.l.height, &padded) == 0);
+            uint8_t *big = malloc((size_t)(5 * 3 * s.l.width * s.l.height));
+            CHECK(gv_restore_compose(&s.r.vae, &padded, &s.l, z, GV_COMPOSE_DECODED, big) == 0);
+            CHECK(gv_clip_crop_frames(big, s.l.width, s.l.height, &s.clip.info, want) == 0 &&
+                  !memcmp(out, want, (size_t)(5 * fb)));
+            /* unseen: the render wherever an anchor sees the pixel */
+            s.clip.coverage = malloc((size_t)(3 * w * h));
+            for (int64_t i = 0; i < 3 * w * h; i++) s.clip.coverage[i] = (uint8_t)(i % 3 == 0 ? 0 : 1 + i % 2);
+            CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_UNSEEN, out) == 0);
+            int bad = 0;
+            for (int f = 1; f < 4; f++)
+                for (int64_t p = 0; p < (int64_t)w * h; p++)
+                    if (s.clip.coverage[(f - 1) * w * h + p])
+                        bad += memcmp(out + f * fb + p * 3, s.clip.inputs + f * fb + p * 3, 3) != 0;
+            CHECK(bad == 0);
+            /* latents of another clip's size are refused */
+            gv_clip small;
+            CHECK(rf_make_clip(&small, "room", "eval", 6, s.l.width + 1, h, 40, 1) == 0);
+            CHECK_FAILS_WITH(gv_restore_compose(&s.r.vae, &small, &s.l, z, GV_COMPOSE_DECODED, big), "latents of a");
+            gv_clip_free(&small), gv_clip_free(&padded);
+            free(z), free(out), free(want), free(big);
+            setup_free(&s);
+        }
+}
+
 int main(void)
 {
     const char *tmp = check_tmp_dir();
@@ -623,5 +687,6 @@ int main(void)
     test_eval_lpips(tmp);
     test_runs(tmp);
     test_bad_specs();
+    test_odd_sizes();
     return check_summary();
 }

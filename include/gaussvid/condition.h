@@ -38,7 +38,7 @@
 /* One 5-frame clip prepared for the network (float, channel-first, layouts above). */
 typedef struct {
     int n;                            /* the clip's interval */
-    int frames, height, width;        /* pixel clip: 5 x H x W */
+    int frames, height, width;        /* pixel clip: 5 x H x W, padded to the block (below) */
     int batch;                        /* 1; 3 for the per-frame restorer */
     int z_dim, latent_frames, lh, lw; /* latent grid */
     int vace_dim;                     /* vace_in_dim = 2 z_dim + spatial_factor^2 */
@@ -60,8 +60,19 @@ int64_t gv_clip_latents_z_count(const gv_clip_latents *l);
 int64_t gv_clip_latents_vace_count(const gv_clip_latents *l);
 int64_t gv_clip_latents_plucker_count(const gv_clip_latents *l);
 
-/* Encodes a clip for the model config (VAE with latent statistics; the clip's size a multiple
- * of spatial factor x DiT patch). Fails naming the clip (scene, n) and the problem. */
+/* Any image size: the VAE and the DiT take multiples of a block of spatial factor x DiT patch
+ * pixels (16 x 16 for the small preset), so a clip of another size is padded on its right and
+ * bottom by reflection to the next multiple (gv_clip_pad: frames and coverage plane mirrored,
+ * cameras unchanged, the Plücker field's rays run on through the padding's pixels), encoded
+ * and restored at that size, and cropped back by the composition (gv_restore_compose). The
+ * latents' height and width are the padded ones. Training on such clips (adapt's internal
+ * pairs of a scene) sees the padding too: its targets are mirrored as its inputs are, so the
+ * loss there asks for what the mirrored picture shows. Sizes of at least 1 x 1 are taken.
+ * gv_condition_padded_size: the padded size of a width x height picture for cfg (fails below
+ * 1 pixel). */
+int gv_condition_padded_size(const gv_model_config *cfg, int width, int height, int *padded_width, int *padded_height);
+/* Encodes a clip for the model config (VAE with latent statistics; padded as above). Fails
+ * naming the clip (scene, n) and the problem. */
 int gv_clip_latents_prepare(gv_vae *vae, const gv_model_config *cfg, const gv_clip *clip, gv_clip_latents *out);
 void gv_clip_latents_free(gv_clip_latents *l);
 /* The parts of prepare: the sizes of a clip's latents (no arrays; checks as prepare does),

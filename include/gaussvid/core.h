@@ -78,6 +78,28 @@ int gv_mkdirs(const char *path);
 /* Joins two path parts with one '/' into out (size bytes); fails if it does not fit. */
 int gv_path_join(char *out, size_t size, const char *a, const char *b);
 
+/* Where the released models (the default restorer and its VAE) are looked for, first first
+ * (src/core/models.c; docs/RECONSTRUCT.md "Where the models are found"):
+ *   1. the folders of $GAUSSVID_MODELS (separated by ':', as PATH), when set;
+ *   2. beside the program: its folder/../models (the source tree's build/gaussvid finds models/);
+ *   3. installed: its folder/../share/gaussvid (`make install`: PREFIX/bin, PREFIX/share/gaussvid);
+ *   4. the install prefix the program was built for (its share/gaussvid), when another.
+ * Folders are made absolute (symbolic links and '..' resolved) when they exist; repeats are
+ * listed once. */
+#define GV_MODEL_DIRS_MAX 8
+typedef struct {
+    int count;
+    int env_set;                  /* GAUSSVID_MODELS is set and not empty */
+    char dir[GV_MODEL_DIRS_MAX][4096];
+    char why[GV_MODEL_DIRS_MAX][32]; /* "GAUSSVID_MODELS", "beside the program", ... */
+} gv_model_dirs;
+void gv_model_dirs_list(gv_model_dirs *d);
+/* The first of those folders holding the file `name` (a file name): its path into out, 1; 0
+ * when none holds it. */
+int gv_find_model(const char *name, char *out, size_t size);
+/* "GAUSSVID_MODELS (not set), /repo/models (beside the program), ...": every place looked. */
+void gv_model_dirs_describe(const gv_model_dirs *d, char *out, size_t size);
+
 /* A file written under a temporary name in the same folder and renamed on commit, so that
  * a reader never sees it half-written (src/core/atomic_file.c). A symbolic link is followed:
  * the temporary goes beside the file it names, which is replaced and the link kept. An

@@ -126,6 +126,14 @@ int gv_clip_check_info(const gv_clip_info *info, const char *what);
 int gv_clip_write(const char *path, const gv_clip *clip);
 /* Reads and validates a clip (every tensor, metadata field and their consistency). */
 int gv_clip_read(const char *path, gv_clip *clip);
+/* The clip padded to width x height (at least its size) on the right and bottom by
+ * reflection (clip_pad.c, gv_image_pad_reflect): inputs, targets and the coverage plane when
+ * it has one (mirrored with the pixels it describes); info and cameras the same but for the
+ * size. For the restorer, which takes only multiples of its block (condition.h). */
+int gv_clip_pad(const gv_clip *src, int width, int height, gv_clip *dst);
+/* The 5 frames of a padded clip's layout (width x height) cropped to info's size into out
+ * ([5, info->height, info->width, 3]): undoes gv_clip_pad. */
+int gv_clip_crop_frames(const uint8_t *padded, int width, int height, const gv_clip_info *info, uint8_t *out);
 /* Reads and validates only the metadata and the tensors' dtypes and shapes. */
 int gv_clip_read_info(const char *path, gv_clip_info *info);
 

@@ -60,4 +60,18 @@ void gv_image_draw_text(gv_image *img, int x, int y, const char *text, int scale
 /* Darkens a rectangle (clipped to the image): each colour value times keep (0..1), rounded. */
 void gv_image_shade_rect(gv_image *img, int x, int y, int w, int h, double keep);
 
+/* Padding by reflection (image_pad.c), for networks that take only multiples of a block: the
+ * index in 0..n-1 that position i (any integer) mirrors to, the edge not repeated
+ * (... c b | a b c d | c b a ...), period 2 (n - 1); 0 when n = 1. */
+int gv_reflect_index(int i, int n);
+/* in at the top-left of out (allocated, at least as large, as many channels, another buffer);
+ * the rest of out mirrors it: out(x, y) = in(reflect(x, W), reflect(y, H)). Reflection, not
+ * replication of the edge pixel: the padding continues the picture's texture and gradients
+ * instead of drawing streaks the networks never saw in training, and a constant picture pads
+ * to itself either way. */
+int gv_image_pad_reflect(const gv_image *in, gv_image *out);
+/* The top-left out->width x out->height of in into out (allocated, as many channels): undoes
+ * gv_image_pad_reflect exactly. */
+int gv_image_crop(const gv_image *in, gv_image *out);
+
 #endif

@@ -113,10 +113,12 @@ typedef enum { GV_COMPOSE_DECODED, GV_COMPOSE_RESIDUAL, GV_COMPOSE_UNSEEN } gv_c
 /* "decoded", "residual" or "unseen", and back. */
 const char *gv_compose_name(gv_compose c);
 int gv_compose_from_name(const char *name, gv_compose *out);
-/* The restored clip: out [5, H, W, 3] 8-bit (the clip's layout). z_restored holds
- * gv_clip_latents_z_count(l) floats; l is the clip's conditioning (its z_corrupt). Pixels are
- * (x + 1) 127.5 rounded half up, or with release set as the release converts them
- * (gv_release_to_u8). */
+/* The restored clip: out [5, H, W, 3] 8-bit (the clip's layout and size). z_restored holds
+ * gv_clip_latents_z_count(l) floats; l is the clip's conditioning (its z_corrupt). A clip off
+ * the network's block (condition.h) has latents of its padded size: it is composed padded and
+ * cropped back, so out is always the clip's own size.
+ * Pixels are (x + 1) 127.5 rounded half up, or with release set as the release converts
+ * them (gv_release_to_u8). */
 int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *l, const float *z_restored,
                        gv_compose mode, int release, uint8_t *out);
 /* The release's pixel conversion: uint8(clip((x + 1) 127.5, 0, 255)) on a bf16 tensor, each

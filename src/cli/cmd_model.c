@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "cli/commands.h"
+#include "gaussvid/condition.h"
 #include "gaussvid/core.h"
 #include "gaussvid/weight_files.h"
 #include "gaussvid/model_config.h"
@@ -266,8 +267,14 @@ static int inspect(const inspect_options *o, const gv_flag_list *names, unsigned
         fprintf(stderr, "gaussvid model inspect: %s\n", gv_last_error());
         return 2;
     }
+    /* any size: the cost of the clip padded to the network's block, as the restorer runs it */
+    int clip[3] = {o->clip[0], o->clip[1], o->clip[2]};
+    if (gv_condition_padded_size(&c, o->clip[2], o->clip[1], &clip[2], &clip[1]) != 0) {
+        fprintf(stderr, "gaussvid model inspect: %s\n", gv_last_error());
+        return 2;
+    }
     gv_model_cost cost;
-    int have_cost = gv_model_cost_estimate(&c, o->clip[0], o->clip[1], o->clip[2], &cost) == 0;
+    int have_cost = gv_model_cost_estimate(&c, clip[0], clip[1], clip[2], &cost) == 0;
     if (!have_cost && o->clip_given) {
         fprintf(stderr, "gaussvid model inspect: %s\n", gv_last_error());
         return 2;
@@ -293,7 +300,7 @@ static int inspect(const inspect_options *o, const gv_flag_list *names, unsigned
         } else {
             print_config(&c, o->config);
             print_counts(&counts);
-            if (have_cost) print_cost(&cost, o->clip);
+            if (have_cost) print_cost(&cost, clip);
             if (names->n) print_report(&report, &values, files, names->n);
             if (o->list) print_list(&l);
         }
@@ -318,7 +325,7 @@ static int cmd_model_inspect(int argc, char **argv)
         {"variant", GV_FLAG_STRING, &o.variant, "V", GV_VARIANT_HELP, 0},
         {"parts", GV_FLAG_STRING, &o.parts, "P", "parts the files must provide: dit,vace,vae,camera,lora, base, adapters, all (default)", 0},
         {"frames", GV_FLAG_INT, &frames, "N", "clip frames for the cost estimate (default 5)", 0},
-        {"height", GV_FLAG_INT, &height, "N", "clip height in pixels (default 144)", 0},
+        {"height", GV_FLAG_INT, &height, "N", "clip height in pixels (default 144; any: the cost is of the clip padded to the block, as restoration runs it)", 0},
         {"width", GV_FLAG_INT, &width, "N", "clip width in pixels (default 256)", 0},
         {"list", GV_FLAG_BOOL, &o.list, NULL, "also list every tensor: name, shape, module, trainable|frozen", 0},
         {"json", GV_FLAG_BOOL, &o.json, NULL, "print everything as JSON", 0},

@@ -11,7 +11,20 @@
 #include "gaussvid/report.h"
 #include "gaussvid/splat_train.h"
 
-#define DEFAULT_CKPT "models/gaussvid-small.safetensors"
+#define DEFAULT_CKPT_NAME "gaussvid-small.safetensors"
+#define DEFAULT_CKPT "models/" DEFAULT_CKPT_NAME
+
+/* The released restorer, wherever the model folders are (core.h: $GAUSSVID_MODELS, beside the
+ * program, installed), into path; fails naming every place looked and --ckpt. */
+static int default_ckpt(char *path, size_t size)
+{
+    if (gv_find_model(DEFAULT_CKPT_NAME, path, size)) return 0;
+    gv_model_dirs d;
+    char where[8192];
+    gv_model_dirs_list(&d);
+    gv_model_dirs_describe(&d, where, sizeof where);
+    return gv_fail("the default restorer %s is in none of: %s; give one with --ckpt FILE", DEFAULT_CKPT_NAME, where);
+}
 
 static void print_stage(void *ctx, int n, const char *stage, const char *summary, double seconds, double cpu)
 {
@@ -23,14 +36,14 @@ int cmd_reconstruct(int argc, char **argv)
 {
     gv_reconstruct_options o;
     gv_reconstruct_defaults(&o);
-    o.ckpt = DEFAULT_CKPT;
+    o.ckpt = NULL;
     const char *intervals = NULL, *densify = NULL;
     int seed = 0, adapt_steps = (int)o.adapt_options.train.steps;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (images/ with sparse/0 or transforms.json; gaussvid scene colmap makes one from photos)", 1},
         {"interval", GV_FLAG_STRING, &intervals, "N[,N...|A:B:S]", "sparse views: frames 0, N, 2N, ... train, the held-out frames between them are restored (N >= 4); N = 1: every view trains and a smooth path between them is restored; a list or a range a:b:s runs each", 1},
         {"out", GV_FLAG_STRING, &o.out_dir, "DIR", "where everything goes: metrics.json and nN/ per interval (docs/RECONSTRUCT.md)", 1},
-        {"ckpt", GV_FLAG_STRING, &o.ckpt, "FILE", "the restorer (default " DEFAULT_CKPT ")", 0},
+        {"ckpt", GV_FLAG_STRING, &o.ckpt, "FILE", "the restorer (default " DEFAULT_CKPT_NAME ", found in $GAUSSVID_MODELS, else beside the program (../models: the source tree's " DEFAULT_CKPT "), else where make install put it (../share/gaussvid))", 0},
         {"iters", GV_FLAG_INT, &o.iters, "N", "sparse 3DGS iterations (default 8000)", 0},
         {"densify", GV_FLAG_STRING, &densify, "MODE", "its density control: reference (default, the paper's), lean (twice as fast) or mcmc", 0},
         {"refine-iters", GV_FLAG_INT, &o.refine_iters, "N", "refinement iterations (default 1000)", 0},
@@ -68,6 +81,11 @@ int cmd_reconstruct(int argc, char **argv)
          gv_fail("--downscale %d: expected 1, 2, 4 or 8", o.downscale) != 0)) {
         fprintf(stderr, "gaussvid reconstruct: %s (see 'gaussvid reconstruct --help')\n", gv_last_error());
         return 2;
+    }
+    char found[4096];
+    if (!o.ckpt) {
+        if (default_ckpt(found, sizeof found)) return gv_report_failure();
+        o.ckpt = found;
     }
     o.seed = (uint64_t)seed;
     o.on_stage = print_stage;

@@ -6,6 +6,7 @@
 #include <time.h>
 
 #include "gaussvid/checkpoint.h"
+#include "gaussvid/condition.h"
 #include "gaussvid/core.h"
 #include "gaussvid/model_config.h"
 #include "gaussvid/report.h"
@@ -81,8 +82,8 @@ static int stage_index(const char *name)
     return -1;
 }
 
-/* The checks that need no training: flags, the checkpoint (its record into rec), the images'
- * size against the restorer's grid, ffmpeg when the video stage will run. */
+/* The checks that need no training: flags, the checkpoint (its record into rec), one image
+ * size (any: the restorer pads), ffmpeg when the video stage will run. */
 static int check_options(const gv_reconstruct_options *o, const gv_scene *scene, int last, gv_restorer *rec)
 {
     if (o->n_intervals < 1) return gv_fail("no --interval given");
@@ -102,10 +103,11 @@ static int check_options(const gv_reconstruct_options *o, const gv_scene *scene,
                            scene->cameras[i].width, scene->cameras[i].height, w, h);
     if (gv_restorer_open(o->ckpt, GV_RESTORER_RECORD, rec)) return -1;
     const gv_model_config cfg = rec->cfg;
-    if (gv_model_cost_estimate(&cfg, 5, h, w, &cost))
-        return gv_fail("%s: %dx%d images do not fit the restorer %s (%s): crop or scale them to multiples of %d "
-                       "(scene info --downscale may help)", scene->dir, w, h, o->ckpt, cfg.name,
-                       cfg.vae.spatial_factor * cfg.dit.patch_size[1]);
+    /* any size: the restorer pads each clip to its block and crops the result (condition.h) */
+    int pw = 0, ph = 0;
+    if (gv_condition_padded_size(&cfg, w, h, &pw, &ph)) return gv_fail_context("%s", scene->dir);
+    if (gv_model_cost_estimate(&cfg, 5, ph, pw, &cost))
+        return gv_fail_context("%s: the restorer %s (%s) on 5-frame clips of %dx%d", scene->dir, o->ckpt, cfg.name, pw, ph);
     char ffmpeg[4200];
     if (last >= stage_index("video") && pipeline_find_ffmpeg(o, ffmpeg, sizeof ffmpeg)) return -1;
     return 0;

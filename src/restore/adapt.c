@@ -67,16 +67,13 @@ static int check_base(const gv_adapt_options *o)
     return 0;
 }
 
-/* The scene at its interval, and frames the network takes. */
-static int load_scene(const gv_adapt_options *o, const gv_model_config *cfg, gv_scene *scene)
+/* The scene, checked at its interval. */
+static int load_scene(const gv_adapt_options *o, gv_scene *scene)
 {
     gv_scene_options so = {.downscale = o->downscale};
     if (gv_scene_load(o->scene_dir, &so, scene)) return -1;
+    /* any frame size: the clips are padded to the network's block (condition.h) */
     int rc = gv_internal_check(scene->n_frames, o->interval) ? gv_fail_context("%s", o->scene_dir) : 0;
-    int step = cfg->vae.spatial_factor * cfg->dit.patch_size[1];
-    if (rc == 0 && (scene->cameras[0].width % step || scene->cameras[0].height % step))
-        rc = gv_fail("%s: frames of %dx%d; the network takes multiples of %d pixels (try --downscale)", o->scene_dir,
-                     scene->cameras[0].width, scene->cameras[0].height, step);
     if (rc) gv_scene_free(scene);
     return rc;
 }
@@ -210,7 +207,7 @@ static int run_stages(const gv_adapt_options *o, const char *work, adapt_run *x,
     snprintf(harm, sizeof harm, "%s/harm", work);
     gv_scene scene;
     if (gv_checkpoint_read_info(o->base, &x->base.cfg, &x->base.state) || gv_mkdirs(work) ||
-        load_scene(o, &x->base.cfg, &scene))
+        load_scene(o, &scene))
         return -1;
     double t = gv_now();
     gv_model_config want = x->base.cfg; /* the adapted network's variant: with coverage, every clip needs its plane */

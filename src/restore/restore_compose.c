@@ -1,7 +1,8 @@
 /* The restored clip in pixels (restore.h): anchors from the input, intermediates decoded from
  * the restored latent, or the render corrected by the decoded change of the latent
  * (gv_vae_decode_residual, docs/VAE.md "Residual decoding"), everywhere or only on the pixels
- * no anchor sees (the clip's coverage plane). */
+ * no anchor sees (the clip's coverage plane); a clip padded to the network's block is composed
+ * padded and cropped back (condition.h). */
 #include <stdlib.h>
 #include <string.h>
 
@@ -45,18 +46,14 @@ uint8_t gv_release_to_u8(float x)
     return (uint8_t)p; /* truncation, as torch's .to(uint8) */
 }
 
-int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *l, const float *z_restored,
-                       gv_compose mode, int release, uint8_t *out)
+/* The composition of a clip of the latents' size (padded, when padding was needed). */
+static int compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *l, const float *z_restored, gv_compose mode,
+                   int release, uint8_t *out)
 {
     const gv_clip_info *info = &clip->info;
-    if (l->width != info->width || l->height != info->height)
-        return gv_fail("restore: latents of a %dx%d clip for a %dx%d clip", l->width, l->height, info->width, info->height);
     const int64_t plane = (int64_t)info->height * info->width, frame_bytes = plane * 3;
     const int F = l->batch == 1 ? GV_CLIP_FRAMES : 1; /* frames per decoded video */
     const int64_t per = gv_clip_latents_z_count(l) / l->batch;
-    if (mode == GV_COMPOSE_UNSEEN && !clip->coverage)
-        return gv_fail("restore: the unseen composition needs the clip's coverage plane, and this clip has none "
-                       "(clips built before it: build them again)");
     memcpy(out, clip->inputs, (size_t)(GV_CLIP_FRAMES * frame_bytes));
     float *video = malloc((size_t)(3 * F * plane) * sizeof *video);
     float *render = mode != GV_COMPOSE_DECODED ? malloc((size_t)(3 * F * plane) * sizeof *render) : NULL;
@@ -90,5 +87,28 @@ int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *
         }
     }
     free(video), free(render);
+    return rc;
+}
+
+int gv_restore_compose(gv_vae *vae, const gv_clip *clip, const gv_clip_latents *l, const float *z_restored,
+                       gv_compose mode, int release, uint8_t *out)
+{
+    const gv_clip_info *info = &clip->info;
+    if (l->width < info->width || l->height < info->height) /* the latents are of the clip padded, or unpadded */
+        return gv_fail("restore: latents of a %dx%d clip for a %dx%d clip", l->width, l->height, info->width, info->height);
+    if (mode == GV_COMPOSE_UNSEEN && !clip->coverage)
+        return gv_fail("restore: the unseen composition needs the clip's coverage plane, and this clip has none "
+                       "(clips built before it: build them again)");
+    if (l->width == info->width && l->height == info->height) return compose(vae, clip, l, z_restored, mode, release, out);
+    /* padded to the block (condition.h): composed at the latents' size and cropped */
+    gv_clip padded;
+    uint8_t *big = malloc((size_t)GV_CLIP_FRAMES * l->width * l->height * 3);
+    int rc = big ? gv_clip_pad(clip, l->width, l->height, &padded) : gv_fail("restore: out of memory");
+    if (rc == 0) {
+        rc = compose(vae, &padded, l, z_restored, mode, release, big);
+        if (rc == 0) rc = gv_clip_crop_frames(big, l->width, l->height, info, out);
+        gv_clip_free(&padded);
+    }
+    free(big);
     return rc;
 }

@@ -154,27 +154,31 @@ static int load_network(const gv_st_file *f, gv_dit *m, const gv_train_state *s,
     return 0;
 }
 
-/* The file named vae (metadata "vae" of ckpt, or another file it names): as written, else the
- * same relative path or file name in the checkpoint's folder, into out. 1 when found, else 0. */
-int gv_checkpoint_find_beside(const char *ckpt, const char *vae, char *out, size_t size)
+/* The file named (metadata "vae" of ckpt, or another file it names): as written, else the same
+ * relative path or file name in the checkpoint's folder (1), else the file name in the model
+ * folders (2), into out; 0 when not found. */
+int gv_checkpoint_find_beside(const char *ckpt, const char *named, char *out, size_t size)
 {
-    snprintf(out, size, "%s", vae);
-    if (*vae && gv_file_exists(out)) return 1;
+    if (!*named) return 0;
+    snprintf(out, size, "%s", named);
+    if (gv_file_exists(out)) return 1;
     char dir[4096];
     snprintf(dir, sizeof dir, "%s", ckpt);
     char *slash = strrchr(dir, '/');
     if (slash) *slash = '\0';
     else snprintf(dir, sizeof dir, ".");
-    const char *base = strrchr(vae, '/');
-    if (*vae && vae[0] != '/' && gv_path_join(out, size, dir, vae) == 0 && gv_file_exists(out)) return 1;
-    return base && gv_path_join(out, size, dir, base + 1) == 0 && gv_file_exists(out);
+    const char *base = strrchr(named, '/');
+    const char *file = base ? base + 1 : named;
+    if (named[0] != '/' && gv_path_join(out, size, dir, named) == 0 && gv_file_exists(out)) return 1;
+    if (base && gv_path_join(out, size, dir, file) == 0 && gv_file_exists(out)) return 1;
+    return *file && gv_find_model(file, out, size) ? 2 : 0;
 }
 
 int gv_checkpoint_vae_path(const char *ckpt, const gv_train_state *s, char *out, size_t size)
 {
     if (!*s->vae) return gv_fail("%s: metadata vae is missing and the file holds no VAE tensors", ckpt);
     if (gv_checkpoint_find_beside(ckpt, s->vae, out, size)) return 0;
-    return gv_fail("%s: the VAE it names, %s, is not found (neither as written nor beside the checkpoint)", ckpt, s->vae);
+    return gv_fail("%s: the VAE it names, %s, is not found (looked " GV_CHECKPOINT_LOOKED ")", ckpt, s->vae);
 }
 
 /* The VAE: its tensors in the file (r->vae_path is then the file the metadata names if there is
@@ -195,10 +199,20 @@ static int load_vae(const gv_st_file *f, gv_restorer *r)
             snprintf(r->vae_path, sizeof r->vae_path, "%s", f->path);
         return gv_vae_read(&r->vae, f, 1);
     }
-    if (gv_checkpoint_vae_path(f->path, &r->state, r->vae_path, sizeof r->vae_path) || gv_vae_load(&r->vae, r->vae_path, 0))
-        return -1;
-    gv_checkpoint_vae_checksum(&r->vae, sum, sizeof sum);
-    if (*r->state.vae_checksum && strcmp(sum, r->state.vae_checksum))
+    int where = *r->state.vae ? gv_checkpoint_find_beside(f->path, r->state.vae, r->vae_path, sizeof r->vae_path) : 0;
+    if (!where) return gv_checkpoint_vae_path(f->path, &r->state, r->vae_path, sizeof r->vae_path);
+    int rc = gv_vae_load(&r->vae, r->vae_path, 0), other = 0;
+    if (rc == 0) {
+        gv_checkpoint_vae_checksum(&r->vae, sum, sizeof sum);
+        other = *r->state.vae_checksum && strcmp(sum, r->state.vae_checksum);
+    }
+    /* a file of that name in the model folders (e.g. the released vae.safetensors) that is not
+     * this VAE: the one named is not found */
+    if (where == 2 && (rc || other))
+        return gv_fail("%s: the VAE it names, %s, is not found (looked " GV_CHECKPOINT_LOOKED "; %s there is another VAE)",
+                       f->path, r->state.vae, r->vae_path);
+    if (rc) return -1;
+    if (other)
         return gv_fail("%s: the VAE %s is not the one it was trained with (checksum %s, expected %s)", f->path, r->vae_path,
                        sum, r->state.vae_checksum);
     return 0;

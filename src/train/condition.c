@@ -92,8 +92,18 @@ int gv_condition_frame_blanked(const gv_model_config *cfg, int frame)
     return mask[frame] != 0.0f;
 }
 
-/* The model config must describe this VAE, and the clip must fit the VAE and the DiT patch. */
-static int check_sizes(const gv_vae *vae, const gv_model_config *cfg, const gv_clip_info *info, int frames)
+int gv_condition_padded_size(const gv_model_config *cfg, int width, int height, int *padded_width, int *padded_height)
+{
+    const int bh = cfg->vae.spatial_factor * cfg->dit.patch_size[1], bw = cfg->vae.spatial_factor * cfg->dit.patch_size[2];
+    if (width < 1 || height < 1) return gv_fail("a %dx%d picture: the restorer needs at least one pixel", width, height);
+    if (bh < 1 || bw < 1) return gv_fail("config %s: a block of %dx%d pixels", cfg->name, bw, bh);
+    *padded_width = (width + bw - 1) / bw * bw, *padded_height = (height + bh - 1) / bh * bh;
+    return 0;
+}
+
+/* The model config must describe this VAE, and the padded clip (width x height) must fit the
+ * VAE and the DiT patch. */
+static int check_sizes(const gv_vae *vae, const gv_model_config *cfg, int width, int height, int frames)
 {
     const gv_vae_config *v = &vae->cfg;
     const gv_dit_config *d = &cfg->dit;
@@ -107,12 +117,11 @@ static int check_sizes(const gv_vae *vae, const gv_model_config *cfg, const gv_c
     if (d->vace_in_dim != 2 * v->z_dim + v->spatial_factor * v->spatial_factor)
         return gv_fail("config %s: vace_in_dim %d is not 2 x %d + %d^2", cfg->name, d->vace_in_dim, v->z_dim,
                        v->spatial_factor);
-    if (gv_vae_check_clip(v, frames, info->height, info->width)) return -1;
-    int lt = 1 + (frames - 1) / v->temporal_factor, lh = info->height / v->spatial_factor,
-        lw = info->width / v->spatial_factor;
-    if (lt % d->patch_size[0] || lh % d->patch_size[1] || lw % d->patch_size[2])
-        return gv_fail("a %dx%d clip gives a %dx%dx%d latent grid, not a multiple of the DiT patch %dx%dx%d",
-                       info->width, info->height, lt, lh, lw, d->patch_size[0], d->patch_size[1], d->patch_size[2]);
+    if (gv_vae_check_clip(v, frames, height, width)) return -1;
+    int lt = 1 + (frames - 1) / v->temporal_factor;
+    if (lt % d->patch_size[0])
+        return gv_fail("a %d-frame clip gives %d latent frames, not a multiple of the DiT patch %d", frames, lt,
+                       d->patch_size[0]);
     return 0;
 }
 
@@ -187,16 +196,17 @@ static int prepare_per_frame(gv_vae *vae, const gv_model_config *cfg, const gv_c
 int gv_clip_latents_shape(const gv_vae *vae, const gv_model_config *cfg, const gv_clip_info *info, gv_clip_latents *l)
 {
     memset(l, 0, sizeof *l);
-    int per_frame = cfg->variant.per_frame, frames = per_frame ? 1 : GV_CLIP_FRAMES;
-    if (check_sizes(vae, cfg, info, frames))
+    int per_frame = cfg->variant.per_frame, frames = per_frame ? 1 : GV_CLIP_FRAMES, width = 0, height = 0;
+    if (gv_condition_padded_size(cfg, info->width, info->height, &width, &height) ||
+        check_sizes(vae, cfg, width, height, frames))
         return gv_fail_context("clip %s n%d frames %d-%d", info->id.scene, info->id.n, info->frames[0],
                                info->frames[GV_CLIP_FRAMES - 1]);
     l->n = info->id.n;
-    l->frames = GV_CLIP_FRAMES, l->height = info->height, l->width = info->width;
+    l->frames = GV_CLIP_FRAMES, l->height = height, l->width = width;
     l->batch = per_frame ? GV_CLIP_FRAMES - 2 : 1;
     l->z_dim = vae->cfg.z_dim;
     l->latent_frames = 1 + (frames - 1) / vae->cfg.temporal_factor;
-    l->lh = info->height / vae->cfg.spatial_factor, l->lw = info->width / vae->cfg.spatial_factor;
+    l->lh = height / vae->cfg.spatial_factor, l->lw = width / vae->cfg.spatial_factor;
     l->vace_dim = cfg->dit.vace_in_dim;
     l->plucker_frames = gv_plucker_packed_frames(frames, vae->cfg.temporal_factor);
     /* frames without ground truth (target_mask): a latent frame packs the first frame alone,
@@ -227,18 +237,20 @@ int gv_clip_latents_alloc(gv_clip_latents *l, int with_plucker)
 
 int gv_clip_latents_plucker(const gv_clip *clip, int temporal_factor, gv_clip_latents *l)
 {
-    const gv_clip_info *info = &clip->info;
+    /* the latents' (padded) size: rays through the padding's pixel centres, same intrinsics */
+    const int height = l->height, width = l->width;
     gv_camera cams[GV_CLIP_FRAMES];
     gv_clip_cameras(clip, cams);
-    if (l->batch == 1) return gv_plucker_field(cams, GV_CLIP_FRAMES, info->height, info->width, temporal_factor, l->plucker, NULL);
+    for (int f = 0; f < GV_CLIP_FRAMES; f++) cams[f].width = width, cams[f].height = height;
+    if (l->batch == 1) return gv_plucker_field(cams, GV_CLIP_FRAMES, height, width, temporal_factor, l->plucker, NULL);
     /* per-frame: each intermediate relative to the first anchor with the clip's length, its rays
      * repeated to fill the packed group of a 1-frame clip (plucker.h) */
-    const int64_t plane = (int64_t)info->height * info->width;
+    const int64_t plane = (int64_t)height * width;
     float *rays = malloc((size_t)(6 * plane) * sizeof *rays);
-    if (!rays) return gv_fail("out of memory for %dx%d rays", info->width, info->height);
+    if (!rays) return gv_fail("out of memory for %dx%d rays", width, height);
     double scale = gv_plucker_scale(cams, GV_CLIP_FRAMES);
     for (int b = 0; b < l->batch; b++) {
-        if (gv_plucker_rays(&cams[1 + b], &cams[0], scale, info->height, info->width, rays)) {
+        if (gv_plucker_rays(&cams[1 + b], &cams[0], scale, height, width, rays)) {
             free(rays);
             return -1;
         }
@@ -257,8 +269,15 @@ int gv_clip_latents_prepare(gv_vae *vae, const gv_model_config *cfg, const gv_cl
     if (gv_clip_latents_shape(vae, cfg, info, out) ||
         gv_clip_latents_alloc(out, cfg->variant.camera != GV_CAMERA_NONE))
         return -1;
-    int rc = cfg->variant.per_frame ? prepare_per_frame(vae, cfg, clip, out) : prepare_clip(vae, cfg, clip, out);
-    if (rc == 0 && out->plucker) rc = gv_clip_latents_plucker(clip, vae->cfg.temporal_factor, out);
+    /* a clip off the block is encoded padded (condition.h) */
+    gv_clip padded;
+    memset(&padded, 0, sizeof padded);
+    int pad = out->width != info->width || out->height != info->height;
+    int rc = pad ? gv_clip_pad(clip, out->width, out->height, &padded) : 0;
+    const gv_clip *c = pad ? &padded : clip;
+    if (rc == 0) rc = cfg->variant.per_frame ? prepare_per_frame(vae, cfg, c, out) : prepare_clip(vae, cfg, c, out);
+    if (rc == 0 && out->plucker) rc = gv_clip_latents_plucker(c, vae->cfg.temporal_factor, out);
+    gv_clip_free(&padded);
     if (rc) {
         gv_clip_latents_free(out);
         return gv_fail_context("clip %s n%d frames %d-%d", info->id.scene, info->id.n, info->frames[0],

@@ -226,14 +226,16 @@ int gv_scene_checkpoint_is(const char *path)
     return !strcmp(s.kind, GV_SCENE_CHECKPOINT_KIND);
 }
 
-/* The base a scene checkpoint names (metadata "base"): as written, else beside it. */
+/* The base a scene checkpoint names (metadata "base"): as written, else beside it (1), else in
+ * the model folders (2, where another checkpoint may have its name: the caller checks). */
 static int find_base(const char *path, const gv_train_state *state, char *out, size_t size)
 {
     if (!*state->base) return gv_fail("%s: metadata base is missing: no base checkpoint to apply the adapters to", path);
-    if (!gv_checkpoint_find_beside(path, state->base, out, size))
-        return gv_fail("%s: the base checkpoint it adapts, %s, is not found (neither as written nor beside it)", path,
+    int where = gv_checkpoint_find_beside(path, state->base, out, size);
+    if (!where)
+        return gv_fail("%s: the base checkpoint it adapts, %s, is not found (looked " GV_CHECKPOINT_LOOKED ")", path,
                        state->base);
-    return 0;
+    return where;
 }
 
 /* The base's network and VAE under the scene checkpoint's config cfg (r holds the base's):
@@ -254,9 +256,13 @@ static int load_over_base(const gv_st_file *f, gv_st_file *base, const gv_model_
  * record's, not itself a scene checkpoint; r's config and state become the base's. */
 static int open_base(const char *path, const gv_train_state *s, gv_st_file *base, gv_restorer *r)
 {
-    if (find_base(path, s, r->base_path, sizeof r->base_path) || gv_ckpt_open(base, r->base_path)) return -1;
+    int where = find_base(path, s, r->base_path, sizeof r->base_path);
+    if (where < 0 || gv_ckpt_open(base, r->base_path)) return -1;
     int rc = open_file_checksum(base, r->base_checksum, sizeof r->base_checksum);
-    if (rc == 0 && strcmp(r->base_checksum, r->adaptation.base_checksum))
+    if (rc == 0 && where == 2 && strcmp(r->base_checksum, r->adaptation.base_checksum))
+        rc = gv_fail("%s: the base checkpoint it adapts, %s, is not found (looked " GV_CHECKPOINT_LOOKED
+                     "; %s there is another checkpoint)", path, s->base, r->base_path);
+    else if (rc == 0 && strcmp(r->base_checksum, r->adaptation.base_checksum))
         rc = gv_fail("%s: %s is not the base its adapters were trained on (checksum %s, expected %s)", path,
                      r->base_path, r->base_checksum, r->adaptation.base_checksum);
     if (rc == 0) rc = gv_ckpt_read_meta(base, &r->cfg, &r->state); /* the base's, for its network and VAE */

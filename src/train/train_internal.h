@@ -10,8 +10,13 @@
 int gv_ckpt_open(gv_st_file *f, const char *path);
 /* Parses the "config" and training-state metadata of an open checkpoint. */
 int gv_ckpt_read_meta(const gv_st_file *f, gv_model_config *cfg, gv_train_state *s);
-/* A file a checkpoint names (its VAE, its text context): as written, else the same relative
- * path or file name in the checkpoint's folder, into out. 1 when found, else 0. */
+/* A file a checkpoint names (its VAE, its text context, a scene checkpoint's base): as
+ * written, else the same relative path or file name in the checkpoint's folder, else the file
+ * name in the model folders (gv_find_model: $GAUSSVID_MODELS, beside the program, installed),
+ * into out: 1 found as written or beside, 2 in the model folders (a file of the same name
+ * there may be another model: the caller checks it), 0 not found. GV_CHECKPOINT_LOOKED says
+ * where, for messages. */
+#define GV_CHECKPOINT_LOOKED "as written, beside the checkpoint and in the model folders ($GAUSSVID_MODELS, beside the program, installed)"
 int gv_checkpoint_find_beside(const char *ckpt, const char *named, char *out, size_t size);
 /* training_scenes.c: r's training scenes from the state of checkpoint ckpt (metadata "scenes",
  * else the record beside the file); a bad record sets scenes_known -1 and scenes_error. */
