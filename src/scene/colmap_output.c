@@ -1,0 +1,189 @@
+/* The scene folder from COLMAP's model (colmap_internal.h, docs/SCENES.md "From photos"):
+ * image_undistorter runs on BATCH photos at a time (its full-size JPEGs, at quality 100, are
+ * four times the photos: a batch at a time keeps them out of the peak); each undistorted photo
+ * is turned upright by its EXIF orientation, written once as images/NAME and downscaled as
+ * images_K/NAME (JPEG at quality 95 for a .jpg photo, PNG for a .png), and COLMAP's copy
+ * removed. The model is turned the same way (per orientation a camera, the poses rotated
+ * about the optical axis) and written as sparse/0, transforms.json and points3D.ply. */
+#define _XOPEN_SOURCE 700
+#include <ftw.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "colmap_internal.h"
+#include "gaussvid/image.h"
+#include "gaussvid/scene.h"
+
+#define BATCH 8
+#define JPEG_QUALITY 95
+
+/* A mirrored tag (a front camera's) is turned upright without the mirror: a mirror image has
+ * no camera. 2 -> 1, 4 -> 3, 5 -> 6, 7 -> 8 (each the rotation before the left-right mirror). */
+static int rotation_of(int orientation)
+{
+    static const int rotation[9] = {1, 1, 1, 3, 3, 6, 6, 8, 8};
+    return orientation >= 1 && orientation <= 8 ? rotation[orientation] : 1;
+}
+
+static int orientation_of(const colmap_photos *p, const char *name)
+{
+    for (int i = 0; i < p->n; i++)
+        if (!strcmp(p->photo[i].name, name)) return rotation_of(p->photo[i].orientation);
+    return 1;
+}
+
+static int remove_entry(const char *path, const struct stat *st, int flag, struct FTW *ftw)
+{
+    (void)st, (void)flag, (void)ftw;
+    remove(path);
+    return 0;
+}
+
+/* One undistorted photo: upright, written at full size and at each downscale; COLMAP's copy removed. */
+static int write_photo(const colmap_paths *paths, const gv_colmap_run_options *o, const char *name, int rotation)
+{
+    char from[COLMAP_PATH + 300], to[COLMAP_PATH + 300];
+    gv_image stored, up;
+    int tag;
+    snprintf(from, sizeof from, "%s/images/%s", paths->undistorted, name);
+    if (gv_image_read_stored(from, &stored, &tag)) return -1;
+    int rc = gv_image_orient(&stored, rotation, &up);
+    gv_image_free(&stored);
+    const char *dot = strrchr(name, '.');
+    int png = dot && !strcasecmp(dot, ".png");
+    for (int k = 0; rc == 0 && k <= o->n_downscales; k++) {
+        int factor = k ? o->downscales[k - 1] : 1;
+        gv_image small;
+        if (factor == 1) snprintf(to, sizeof to, "%s/images", o->out_dir);
+        else snprintf(to, sizeof to, "%s/images_%d", o->out_dir, factor);
+        if ((rc = gv_mkdirs(to))) break;
+        snprintf(to + strlen(to), sizeof to - strlen(to), "/%s", name);
+        const gv_image *out = &up;
+        if (factor > 1 && (rc = gv_image_downscale(&up, factor, &small))) break;
+        if (factor > 1) out = &small;
+        rc = png ? gv_image_write_png(to, out) : gv_image_write_jpeg(to, out, JPEG_QUALITY);
+        if (factor > 1) gv_image_free(&small);
+    }
+    gv_image_free(&up);
+    if (rc == 0) remove(from);
+    return rc;
+}
+
+/* COLMAP's undistorter on names [from, to) of the model, then each photo written. */
+static int undistort_batch(const colmap_paths *paths, const gv_colmap_run_options *o, const colmap_photos *p,
+                           const gv_colmap_model *m, const char *model, int from, int to)
+{
+    char list[COLMAP_PATH + 32], text[BATCH * (GV_COLMAP_MAX_NAME + 1) + 1];
+    size_t len = 0;
+    text[0] = 0;
+    for (int i = from; i < to; i++) len += (size_t)snprintf(text + len, sizeof text - len, "%s%s", i > from ? "\n" : "", m->images[i].name);
+    snprintf(list, sizeof list, "%s/undistort_list.txt", paths->work);
+    if (gv_write_text_atomic(list, text)) return -1;
+    const char *argv[] = {paths->colmap, "image_undistorter", "--image_path", paths->images, "--input_path", model,
+                          "--output_path", paths->undistorted, "--output_type", "COLMAP", "--image_list_path", list,
+                          NULL};
+    if (colmap_step(argv, paths->log, NULL, NULL)) return -1;
+    for (int i = from; i < to; i++)
+        if (write_photo(paths, o, m->images[i].name, orientation_of(p, m->images[i].name))) return -1;
+    return 0;
+}
+
+/* The camera and pose of an image shown turned by rotation 3, 6 or 8 (stored W x H): pixel
+ * (x, y) shows at (W - x, H - y), (H - y, x) or (y, W - x), so the camera frame turns by M
+ * (R' = M R, t' = M t) and the intrinsics move with the pixels. */
+static void turn_camera(int rotation, gv_colmap_camera *c, gv_colmap_image *im)
+{
+    double fx = c->params[0], fy = c->params[1], cx = c->params[2], cy = c->params[3];
+    int W = c->width, H = c->height;
+    double M[9] = {-1, 0, 0, 0, -1, 0, 0, 0, 1};
+    if (rotation == 3) {
+        c->params[2] = W - cx, c->params[3] = H - cy;
+    } else {
+        double m6[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1}, m8[9] = {0, 1, 0, -1, 0, 0, 0, 0, 1};
+        memcpy(M, rotation == 6 ? m6 : m8, sizeof M);
+        c->width = H, c->height = W;
+        c->params[0] = fy, c->params[1] = fx;
+        c->params[2] = rotation == 6 ? H - cy : cy;
+        c->params[3] = rotation == 6 ? cx : W - cx;
+    }
+    double R[9], R2[9], t[3];
+    gv_colmap_qvec_to_rotmat(im->qvec, R);
+    for (int i = 0; i < 3; i++) {
+        t[i] = 0;
+        for (int k = 0; k < 3; k++) t[i] += M[3 * i + k] * im->tvec[k];
+        for (int j = 0; j < 3; j++) {
+            R2[3 * i + j] = 0;
+            for (int k = 0; k < 3; k++) R2[3 * i + j] += M[3 * i + k] * R[3 * k + j];
+        }
+    }
+    gv_colmap_rotmat_to_qvec(R2, im->qvec);
+    memcpy(im->tvec, t, sizeof t);
+}
+
+/* Each image's camera turned by its photo's orientation: one camera per (camera, rotation). */
+static int turn_model(gv_colmap_model *m, const colmap_photos *p)
+{
+    int cap = 4 * m->n_cameras, n = 0, *source = malloc((size_t)cap * sizeof *source);
+    gv_colmap_camera *cams = calloc((size_t)cap, sizeof *cams);
+    if (!cams || !source) {
+        free(cams), free(source);
+        return gv_fail("out of memory for %d cameras", cap);
+    }
+    for (int i = 0; i < m->n_images; i++) {
+        gv_colmap_image *im = &m->images[i];
+        int rot = orientation_of(p, im->name), j = 0;
+        const gv_colmap_camera *c = m->cameras;
+        while (c->id != im->camera_id) c++; /* exists: checked by the reader */
+        while (j < n && (source[j] != c->id * 10 + rot)) j++;
+        if (j == n) {
+            cams[n] = *c, cams[n].id = n + 1, source[n] = c->id * 10 + rot;
+            if (rot != 1) turn_camera(rot, &cams[n], &(gv_colmap_image){0});
+            n++;
+        }
+        if (rot != 1) {
+            gv_colmap_camera scratch = *c;
+            turn_camera(rot, &scratch, im);
+        }
+        im->camera_id = j + 1;
+    }
+    free(m->cameras), free(source);
+    m->cameras = cams, m->n_cameras = n;
+    return 0;
+}
+
+int colmap_write_scene(const colmap_paths *paths, const gv_colmap_run_options *o, const colmap_photos *p,
+                       int best, gv_colmap_run_result *r)
+{
+    char model[COLMAP_PATH + 16], sparse[COLMAP_PATH + 16], dir[COLMAP_PATH + 16], images[COLMAP_PATH + 32];
+    snprintf(model, sizeof model, "%s/%d", paths->sparse, best);
+    snprintf(images, sizeof images, "%s/images.bin", model); /* the names: its cameras are still distorted */
+    gv_colmap_model m;
+    memset(&m, 0, sizeof m);
+    if (gv_colmap_read_images_bin(images, &m)) return gv_fail_context("the model COLMAP mapped");
+    nftw(paths->undistorted, remove_entry, 16, FTW_DEPTH | FTW_PHYS); /* an earlier run's */
+    gv_progress bar;
+    gv_progress_start(&bar, "undistort", m.n_images);
+    int rc = 0;
+    for (int i = 0; i < m.n_images && rc == 0; i += BATCH) {
+        int to = i + BATCH < m.n_images ? i + BATCH : m.n_images;
+        rc = undistort_batch(paths, o, p, &m, model, i, to);
+        gv_progress_update(&bar, to, NULL);
+    }
+    gv_progress_finish(&bar);
+    gv_colmap_free(&m);
+    snprintf(sparse, sizeof sparse, "%s/sparse", paths->undistorted);
+    if (rc == 0 && gv_colmap_read_bin(sparse, &m)) rc = gv_fail_context("the undistorted model");
+    if (rc == 0) rc = turn_model(&m, p);
+    r->points = m.n_points;
+    snprintf(dir, sizeof dir, "%s/sparse/0", o->out_dir);
+    if (rc == 0) rc = gv_mkdirs(dir) || gv_colmap_write_text(dir, &m);
+    gv_colmap_free(&m);
+    gv_scene scene;
+    if (rc == 0 && (rc = gv_scene_load(o->out_dir, NULL, &scene)) == 0) {
+        rc = gv_scene_write(o->out_dir, &scene);
+        gv_scene_free(&scene);
+    }
+    if (rc == 0) nftw(paths->undistorted, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+    return rc;
+}
