@@ -194,6 +194,7 @@ int gv_scene_colmap(const gv_colmap_run_options *o, gv_colmap_run_result *r)
     colmap_paths paths;
     if (set_paths(o, o->video ? frames : o->images_dir, &paths)) return -1;
     if (o->video) {
+        if (access(o->video, R_OK)) return gv_fail("%s: no such video file", o->video);
         gv_info("scene colmap: the frames of %s at %g a second, matched in sequence (video frames)", o->video, o->fps);
         if (colmap_video_frames(o, frames, sizeof frames, &r->seconds[0])) return -1;
     }
