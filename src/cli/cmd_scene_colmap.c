@@ -73,8 +73,8 @@ int cmd_scene_colmap(int argc, char **argv)
     o.threads = threads;
     gv_colmap_run_result r;
     if (gv_scene_colmap(&o, &r)) return gv_report_failure();
-    printf("%s: %d of %d photos registered (%d models mapped, the largest kept), %d points; matcher %s", o.out_dir,
-           r.registered, r.images, r.models, r.points, r.matcher);
+    printf("%s: %d of %d photos registered (%d model%s mapped, the largest kept), %d points; matcher %s", o.out_dir,
+           r.registered, r.images, r.models, r.models == 1 ? "" : "s", r.points, r.matcher);
     if (r.pairs) printf(" (%ld pairs)", r.pairs);
     printf("%s; seconds: ", r.resumed ? ", database resumed" : "");
     if (o.video) printf("frames %.1f, ", r.seconds[0]);

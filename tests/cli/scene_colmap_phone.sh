@@ -9,7 +9,8 @@
 # model left sideways is 69 degrees off); images_2/4/8 written once, the image folders within
 # twice the photos' bytes; a run killed in matching resumes (features skipped, each pair in the
 # database once); the scene trains (splat train at downscales 2 and 4: reconstruct refuses
-# sizes that are not multiples of 16 until any size is accepted); the video at --fps 4.
+# sizes that are not multiples of 16 until any size is accepted); unordered names matched
+# exhaustively, or by a vocabulary tree; the video at --fps 4.
 # Skipped (exit 77) without COLMAP or ffmpeg.
 # Usage: bash scene_colmap_phone.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
@@ -72,6 +73,20 @@ for k in 2 4; do
     expect 0 "splat train at downscale $k" -- "$G" splat train --scene S --downscale $k --iters 20 --out m$k.ply --threads 2 --quiet
     exists "m$k.ply"
 done
+
+# Unordered names: exhaustive, or COLMAP's vocab_tree_matcher with a tree (built here from that
+# database by COLMAP's vocab_tree_builder, 64 words: retrieval quality does not matter on 24).
+mkdir -p un
+for f in phone/*.JPG; do cp -p "$f" "un/$(basename "$f" .JPG)_x.JPG"; done
+printf '#!/bin/sh\nexit 3\n' >failing_colmap && chmod +x failing_colmap
+expect 1 "unordered: exhaustive" -- "$G" scene colmap --images un --out U0 --colmap ./failing_colmap
+check "first line: exhaustive" grep -q "^un: 24 photos; matcher: exhaustive (unordered names, chosen): all 276 pairs" err
+check "vocabulary tree" env QT_QPA_PLATFORM=offscreen colmap vocab_tree_builder --database_path S/colmap/database.db \
+    --vocab_tree_path tree.bin --num_visual_words 64 >tree.log 2>&1
+expect 0 "scene colmap --vocab-tree" -- "$G" scene colmap --images un --vocab-tree tree.bin --out U --colmap-threads 2 --downscales none
+err_has "un: 24 photos; matcher: vocab_tree (unordered names, chosen)"
+has "U: 24 of 24 photos registered"
+check "no downscaled copies with --downscales none" test ! -e U/images_2
 
 # The same capture as a video (upright frames: a phone's rotation is applied by ffmpeg).
 check "video" ffmpeg -nostdin -loglevel error -framerate 4 -i R/images/frame_%05d.png \
