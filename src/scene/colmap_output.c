@@ -89,25 +89,35 @@ static int undistort_batch(const colmap_paths *paths, const gv_colmap_run_option
     return 0;
 }
 
-/* The camera and pose of an image shown turned by rotation 3, 6 or 8 (stored W x H): pixel
- * (x, y) shows at (W - x, H - y), (H - y, x) or (y, W - x), so the camera frame turns by M
- * (R' = M R, t' = M t) and the intrinsics move with the pixels. */
-static void turn_camera(int rotation, gv_colmap_camera *c, gv_colmap_image *im)
+/* A photo shown turned by rotation 3, 6 or 8 (stored W x H): its pixel (x, y) shows at
+ * (W - x, H - y), (H - y, x) or (y, W - x) (continuous coordinates), so the intrinsics move
+ * with the pixels and the camera frame turns by M: x' = M x in the camera's coordinates. */
+static void turn_matrix(int rotation, double M[9])
+{
+    static const double m3[9] = {-1, 0, 0, 0, -1, 0, 0, 0, 1}, m6[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1},
+                        m8[9] = {0, 1, 0, -1, 0, 0, 0, 0, 1};
+    memcpy(M, rotation == 3 ? m3 : rotation == 6 ? m6 : m8, 9 * sizeof *M);
+}
+
+static void turn_intrinsics(int rotation, gv_colmap_camera *c)
 {
     double fx = c->params[0], fy = c->params[1], cx = c->params[2], cy = c->params[3];
     int W = c->width, H = c->height;
-    double M[9] = {-1, 0, 0, 0, -1, 0, 0, 0, 1};
     if (rotation == 3) {
         c->params[2] = W - cx, c->params[3] = H - cy;
-    } else {
-        double m6[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1}, m8[9] = {0, 1, 0, -1, 0, 0, 0, 0, 1};
-        memcpy(M, rotation == 6 ? m6 : m8, sizeof M);
-        c->width = H, c->height = W;
-        c->params[0] = fy, c->params[1] = fx;
-        c->params[2] = rotation == 6 ? H - cy : cy;
-        c->params[3] = rotation == 6 ? cx : W - cx;
+        return;
     }
-    double R[9], R2[9], t[3];
+    c->width = H, c->height = W;
+    c->params[0] = fy, c->params[1] = fx;
+    c->params[2] = rotation == 6 ? H - cy : cy;
+    c->params[3] = rotation == 6 ? cx : W - cx;
+}
+
+/* World-to-camera R' = M R, t' = M t. */
+static void turn_pose(int rotation, gv_colmap_image *im)
+{
+    double M[9], R[9], R2[9], t[3];
+    turn_matrix(rotation, M);
     gv_colmap_qvec_to_rotmat(im->qvec, R);
     for (int i = 0; i < 3; i++) {
         t[i] = 0;
@@ -135,16 +145,13 @@ static int turn_model(gv_colmap_model *m, const colmap_photos *p)
         int rot = orientation_of(p, im->name), j = 0;
         const gv_colmap_camera *c = m->cameras;
         while (c->id != im->camera_id) c++; /* exists: checked by the reader */
-        while (j < n && (source[j] != c->id * 10 + rot)) j++;
+        while (j < n && source[j] != c->id * 10 + rot) j++;
         if (j == n) {
             cams[n] = *c, cams[n].id = n + 1, source[n] = c->id * 10 + rot;
-            if (rot != 1) turn_camera(rot, &cams[n], &(gv_colmap_image){0});
+            if (rot != 1) turn_intrinsics(rot, &cams[n]);
             n++;
         }
-        if (rot != 1) {
-            gv_colmap_camera scratch = *c;
-            turn_camera(rot, &scratch, im);
-        }
+        if (rot != 1) turn_pose(rot, im);
         im->camera_id = j + 1;
     }
     free(m->cameras), free(source);

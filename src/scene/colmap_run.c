@@ -103,8 +103,7 @@ static int extract_features(const colmap_paths *paths, const gv_colmap_run_optio
     int rc = colmap_step(argv, paths->log, on_feature_line, &w);
     gv_progress_finish(&w.bar);
     if (rc == 0 && w.extracted)
-        gv_info("features: %d photos extracted, %d to %d features each%s", w.extracted, w.fewest, w.most,
-                w.skipped ? "" : "");
+        gv_info("features: %d photos extracted, %d to %d features each", w.extracted, w.fewest, w.most);
     if (rc == 0 && w.skipped) gv_info("features: %d photos already in the database (skipped)", w.skipped);
     return rc;
 }

@@ -2,7 +2,7 @@
 # gaussvid scene colmap on a phone-like capture made here (issue 41): a synthesised room
 # (scene synth --seed 3 --texture-detail 1, 24 frames of 144x256, portrait) written as
 # IMG_0001.JPG ... stored landscape with EXIF orientation 6 (as a phone holds a portrait
-# photo) and barrel distortion (ffmpeg's lenscorrection); and the same frames as an H.264
+# photo; the last 8 held the other way, orientation 8) and barrel distortion (ffmpeg's lenscorrection); and the same frames as an H.264
 # video. Checked: the matcher chosen by the names (sequential with loop closure) on the first
 # line; every photo registered, upright (portrait) and the room's cameras recovered within
 # 1.5 degrees and 1.5 % of the extent (medians; measured 0.44 degrees and 0.36 %, while the
@@ -31,9 +31,13 @@ awk '{ if (match($0, /frame_[0-9]+\.png$/)) { n = substr($0, RSTART + 6, 5) + 1;
 awk '{ if (match($0, /frame_[0-9]+\.png$/)) { n = substr($0, RSTART + 6, 5) + 1; sub(/frame_[0-9]+\.png$/, sprintf("frame_%05d.jpg", n)) } print }' \
     R/sparse/0/images.txt >known_video.txt
 mkdir -p phone
+# Photos 1-16 held one way (stored turned counter-clockwise, tag 6), 17-24 the other (tag 8).
 check "phone JPEGs: distorted, stored landscape" ffmpeg -nostdin -loglevel error -i R/images/frame_%05d.png \
     -vf "lenscorrection=k1=-0.15:k2=0.02,transpose=2" -q:v 2 -start_number 1 phone/IMG_%04d.JPG
-check "EXIF orientation 6" python3 "$LIB/exif_orientation.py" 6 phone/IMG_0*.JPG
+check "the other way" ffmpeg -nostdin -loglevel error -start_number 16 -i R/images/frame_%05d.png \
+    -vf "lenscorrection=k1=-0.15:k2=0.02,transpose=1" -q:v 2 -start_number 17 -y phone/IMG_%04d.JPG
+check "EXIF orientation 6" python3 "$LIB/exif_orientation.py" 6 phone/IMG_000*.JPG phone/IMG_001[0-6].JPG
+check "EXIF orientation 8" python3 "$LIB/exif_orientation.py" --little 8 phone/IMG_001[7-9].JPG phone/IMG_002*.JPG
 
 # A COLMAP that is killed in its third matching call, as a crash or a Ctrl-C would.
 cat >dying_colmap <<'SH'
@@ -75,14 +79,14 @@ for k in 2 4; do
 done
 
 # Unordered names: exhaustive, or COLMAP's vocab_tree_matcher with a tree (built here from that
-# database by COLMAP's vocab_tree_builder, 64 words: retrieval quality does not matter on 24).
+# database by COLMAP's vocab_tree_builder, 256 words: retrieval quality does not matter on 24).
 mkdir -p un
 for f in phone/*.JPG; do cp -p "$f" "un/$(basename "$f" .JPG)_x.JPG"; done
 printf '#!/bin/sh\nexit 3\n' >failing_colmap && chmod +x failing_colmap
 expect 1 "unordered: exhaustive" -- "$G" scene colmap --images un --out U0 --colmap ./failing_colmap
 check "first line: exhaustive" grep -q "^un: 24 photos; matcher: exhaustive (unordered names, chosen): all 276 pairs" err
 check "vocabulary tree" env QT_QPA_PLATFORM=offscreen colmap vocab_tree_builder --database_path S/colmap/database.db \
-    --vocab_tree_path tree.bin --num_visual_words 64 >tree.log 2>&1
+    --vocab_tree_path tree.bin --num_visual_words 256 >tree.log 2>&1
 expect 0 "scene colmap --vocab-tree" -- "$G" scene colmap --images un --vocab-tree tree.bin --out U --colmap-threads 2 --downscales none
 err_has "un: 24 photos; matcher: vocab_tree (unordered names, chosen)"
 has "U: 24 of 24 photos registered"
