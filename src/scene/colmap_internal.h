@@ -59,6 +59,11 @@ int colmap_match(const colmap_paths *paths, const gv_colmap_run_options *o, cons
  * NULL); fails naming the step and the log. */
 int colmap_step(const char *const argv[], const char *log, gv_line_fn on_line, void *ctx);
 
+/* Removes the mapper's models (sparse/0, sparse/1, ...: the files COLMAP writes there): an
+ * earlier run's before mapping, so that the largest is this run's; the kept one once the
+ * scene no longer needs it. */
+void colmap_remove_models(const char *sparse);
+
 /* The scene from the model sparse/<best>: the photos undistorted in small batches, turned
  * upright, written once as images/ and images_K/, the model turned to match and written. */
 int colmap_write_scene(const colmap_paths *paths, const gv_colmap_run_options *o, const colmap_photos *p,

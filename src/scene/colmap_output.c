@@ -3,8 +3,9 @@
  * four times the photos: a batch at a time keeps them out of the peak); each undistorted photo
  * is turned upright by its EXIF orientation, written once as images/NAME and downscaled as
  * images_K/NAME (JPEG at quality 95 for a .jpg photo, PNG for a .png), and COLMAP's copy
- * removed. The model is turned the same way (per orientation a camera, the poses rotated
- * about the optical axis) and written as sparse/0, transforms.json and points3D.ply. */
+ * removed. The undistorter reads a slim copy of the mapper's model (slim_model). The model is
+ * turned the same way (per orientation a camera, the poses rotated about the optical axis) and
+ * written as sparse/0, transforms.json and points3D.ply. */
 #define _XOPEN_SOURCE 700
 #include <ftw.h>
 #include <stdlib.h>
@@ -159,15 +160,66 @@ static int turn_model(gv_colmap_model *m, const colmap_photos *p)
     return 0;
 }
 
+static int copy_file(const char *from, const char *to)
+{
+    FILE *in = fopen(from, "rb");
+    if (!in) return gv_fail("%s: cannot open", from);
+    gv_atomic_file af;
+    if (gv_atomic_open(&af, to)) {
+        fclose(in);
+        return -1;
+    }
+    char buf[65536];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, in)) > 0)
+        if (fwrite(buf, 1, n, af.f) != n) break;
+    int bad = ferror(in) || !feof(in);
+    fclose(in);
+    if (bad) {
+        gv_atomic_abort(&af);
+        return gv_fail("%s: read error", from);
+    }
+    return gv_atomic_commit(&af);
+}
+
+/* The mapper's model read (m: the images' names and poses, the points), then written slim into
+ * OUT/colmap/model: its 2D points and tracks, 24 and 8 bytes per feature seen and most of its
+ * size (half the photos' at 540x960), are left out (the undistorter needs neither and would
+ * copy them again), cameras.bin copied as it is (gaussvid reads no distorted camera); the
+ * mapper's models are then removed, so they are not on disk beside the scene's images. */
+static int slim_model(const colmap_paths *paths, int best, gv_colmap_model *m, char *slim, size_t size)
+{
+    char dir[COLMAP_PATH + 16], from[COLMAP_PATH + 32], to[COLMAP_PATH + 32];
+    snprintf(dir, sizeof dir, "%s/%d", paths->sparse, best);
+    snprintf(slim, size, "%s/model", paths->work);
+    memset(m, 0, sizeof *m);
+    snprintf(from, sizeof from, "%s/images.bin", dir);
+    if (gv_colmap_read_images_bin(from, m)) return gv_fail_context("the model COLMAP mapped");
+    snprintf(from, sizeof from, "%s/points3D.bin", dir);
+    if (gv_colmap_read_points3d_bin(from, m)) return gv_fail_context("the model COLMAP mapped");
+    gv_colmap_model no_points = *m;
+    no_points.n_points = 0;
+    snprintf(from, sizeof from, "%s/cameras.bin", dir);
+    snprintf(to, sizeof to, "%s/cameras.bin", slim);
+    if (gv_mkdirs(slim) || copy_file(from, to)) return -1;
+    snprintf(to, sizeof to, "%s/images.bin", slim);
+    if (gv_colmap_write_images_bin(to, m)) return -1;
+    snprintf(to, sizeof to, "%s/points3D.bin", slim);
+    if (gv_colmap_write_points3d_bin(to, &no_points)) return -1;
+    colmap_remove_models(paths->sparse);
+    return 0;
+}
+
 int colmap_write_scene(const colmap_paths *paths, const gv_colmap_run_options *o, const colmap_photos *p,
                        int best, gv_colmap_run_result *r)
 {
-    char model[COLMAP_PATH + 16], sparse[COLMAP_PATH + 16], dir[COLMAP_PATH + 16], images[COLMAP_PATH + 32];
-    snprintf(model, sizeof model, "%s/%d", paths->sparse, best);
-    snprintf(images, sizeof images, "%s/images.bin", model); /* the names: its cameras are still distorted */
-    gv_colmap_model m;
-    memset(&m, 0, sizeof m);
-    if (gv_colmap_read_images_bin(images, &m)) return gv_fail_context("the model COLMAP mapped");
+    char model[COLMAP_PATH + 16], sparse[COLMAP_PATH + 16], dir[COLMAP_PATH + 16];
+    gv_colmap_model m, u;
+    memset(&u, 0, sizeof u);
+    if (slim_model(paths, best, &m, model, sizeof model)) {
+        gv_colmap_free(&m);
+        return -1;
+    }
     nftw(paths->undistorted, remove_entry, 16, FTW_DEPTH | FTW_PHYS); /* an earlier run's */
     gv_progress bar;
     gv_progress_start(&bar, "undistort", m.n_images);
@@ -178,14 +230,19 @@ int colmap_write_scene(const colmap_paths *paths, const gv_colmap_run_options *o
         gv_progress_update(&bar, to, NULL);
     }
     gv_progress_finish(&bar);
-    gv_colmap_free(&m);
     snprintf(sparse, sizeof sparse, "%s/sparse", paths->undistorted);
-    if (rc == 0 && gv_colmap_read_bin(sparse, &m)) rc = gv_fail_context("the undistorted model");
-    if (rc == 0) rc = turn_model(&m, p);
-    r->points = m.n_points;
-    snprintf(dir, sizeof dir, "%s/sparse/0", o->out_dir);
-    if (rc == 0) rc = gv_mkdirs(dir) || gv_colmap_write_text(dir, &m);
+    if (rc == 0 && gv_colmap_read_bin(sparse, &u)) rc = gv_fail_context("the undistorted model");
+    if (rc == 0) { /* the points are the mapper's: undistortion moves no 3D point */
+        free(u.points);
+        u.points = m.points, u.n_points = m.n_points;
+        m.points = NULL, m.n_points = 0;
+        rc = turn_model(&u, p);
+    }
     gv_colmap_free(&m);
+    r->points = u.n_points;
+    snprintf(dir, sizeof dir, "%s/sparse/0", o->out_dir);
+    if (rc == 0) rc = gv_mkdirs(dir) || gv_colmap_write_text(dir, &u);
+    gv_colmap_free(&u);
     gv_scene scene;
     if (rc == 0 && (rc = gv_scene_load(o->out_dir, NULL, &scene)) == 0) {
         rc = gv_scene_write(o->out_dir, &scene);

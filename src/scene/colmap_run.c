@@ -22,9 +22,7 @@ void gv_colmap_run_defaults(gv_colmap_run_options *o)
     o->min_registered = 0.5;
 }
 
-/* Removes the models of an earlier run (sparse/0, sparse/1, ...: the files COLMAP writes
- * there), so that the largest model is this run's. */
-static void remove_old_models(const char *sparse)
+void colmap_remove_models(const char *sparse)
 {
     static const char *const files[] = {"cameras.bin", "images.bin", "points3D.bin", "project.ini", "frames.bin",
                                         "rigs.bin"};
@@ -121,7 +119,7 @@ static int map_cameras(const colmap_paths *paths, int n, gv_colmap_run_result *r
     const char *argv[] = {paths->colmap, "mapper", "--database_path", paths->db, "--image_path", paths->images,
                           "--output_path", paths->sparse, "--image_list_path", paths->list, "--Mapper.num_threads",
                           paths->threads, NULL};
-    remove_old_models(paths->sparse);
+    colmap_remove_models(paths->sparse);
     gv_progress bar;
     gv_progress_start(&bar, "map", n);
     /* The mapper fails when it finds no initial pair: that is "0 registered", said after. */
