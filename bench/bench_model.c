@@ -1,6 +1,6 @@
-/* The restoration network's speed on one clip (DESIGN 11; issue 5 "Performance"), per preset:
+/* The restoration network's speed on one clip (docs/ARCHITECTURE.md 11; issue 5 "Performance"), per preset:
  * - one GaussVid fine-tuning step: forward, flow-matching L2 loss, backward, with LoRA and the
- *   camera encoder trainable and the base frozen (DESIGN 6.7), its arena peak, and AdamW;
+ *   camera encoder trainable and the base frozen (docs/ARCHITECTURE.md 6.7), its arena peak, and AdamW;
  * - the same with the camera stream and / or the VACE branch left out (what dominates);
  * - every camera variant and the per-frame restorer;
  * - inference: the forward pass with the camera stream recomputed or taken from its cache;
@@ -204,7 +204,7 @@ static double available_memory(void)
     return kib * 1024.0;
 }
 
-/* Inference with the camera stream recomputed, then from its cache (DESIGN 6.5). */
+/* Inference with the camera stream recomputed, then from its cache (docs/ARCHITECTURE.md 6.5). */
 static int measure_cache(bench *b, int trials, preset_result *p)
 {
     b->backward = 0;

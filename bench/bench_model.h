@@ -1,4 +1,4 @@
-/* The restoration network's speed (DESIGN 11; issue 5 "Performance"), `gaussvid bench model`:
+/* The restoration network's speed (docs/ARCHITECTURE.md 11; issue 5 "Performance"), `gaussvid bench model`:
  * per preset, one GaussVid fine-tuning step on one clip (forward + backward, LoRA and camera
  * encoder trainable) for every variant with its arena peak and weight memory, the camera-stream
  * cache at inference, and the VAE's encode and decode time. Presets too large for a training

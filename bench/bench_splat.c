@@ -1,4 +1,4 @@
-/* `gaussvid bench splat`: speed of sparse-view 3DGS training (DESIGN.md section 5).
+/* `gaussvid bench splat`: speed of sparse-view 3DGS training (docs/ARCHITECTURE.md section 5).
  * For each scene (the shared courtyard and livingroom by default), trains on every 6th frame
  * for 8000 iterations as the dataset builder does, once with each density control asked for
  * (by default lean and the reference's, the trainer's default), one after the other in the
@@ -346,13 +346,13 @@ int gv_bench_splat(const gv_bench_splat_options *o, FILE *out)
         const char *base = getenv("GV_SHARED_DATA");
         const char *names[2] = {"courtyard", "livingroom"};
         for (int k = 0; k < 2; k++) {
-            snprintf(dirs[n_dirs], sizeof dirs[0], "%s/scenes/%s", base ? base : "../shared/data",
+            snprintf(dirs[n_dirs], sizeof dirs[0], "%s/scenes/%s", base ? base : "data",
                      names[k]);
             if (gv_dir_exists(dirs[n_dirs])) n_dirs++;
         }
         if (n_dirs == 0)
             return gv_fail("bench splat: no shared scenes under %s/scenes; pass --scene DIR",
-                           base ? base : "../shared/data");
+                           base ? base : "data");
     }
     cJSON *all = o->json ? cJSON_CreateArray() : NULL;
     const gv_splat_densify_mode modes[3] = {GV_DENSIFY_LEAN, GV_DENSIFY_REFERENCE, GV_DENSIFY_MCMC};

@@ -3,7 +3,7 @@
  * forward, losses, backward, gradient clipping, AdamW) runs on synthetic clip latents of a
  * 5-frame clip of the preset (random latents and VACE context, the Plücker field of a real
  * camera path), so no VAE or dataset is needed: clip latents are cached before training
- * anyway (DESIGN 6.2). Reported per run: clips per second of the optimiser steps (wall), CPU
+ * anyway (docs/ARCHITECTURE.md 6.2). Reported per run: clips per second of the optimiser steps (wall), CPU
  * seconds per clip (all threads; the steadier measure on a shared machine), the step graph's
  * arena peak; the network's restoration time per clip with and without the camera-stream
  * cache; and the process's peak resident memory. */

@@ -1,7 +1,7 @@
 /* Shared by the libFuzzer harnesses (fuzz/fuzz_*.c, docs/RELIABILITY.md). The readers take
  * paths, as the program calls them, so each input is written to a scratch file first (on
  * /dev/shm when there is one: a write per execution). Besides the sanitizers, a harness
- * checks the error contract of DESIGN.md section 4: a failing reader leaves one line that
+ * checks the error contract of docs/ARCHITECTURE.md section 4: a failing reader leaves one line that
  * names the file. */
 #ifndef GAUSSVID_FUZZ_H
 #define GAUSSVID_FUZZ_H

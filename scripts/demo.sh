@@ -11,7 +11,7 @@
 # restored and refined PSNR / SSIM from metrics.json and where the files are. Running it
 # again skips the finished stages.
 #
-# Why adaptation by default: on the seven unseen cells measured (docs/RESULTS.md "Issue 20:
+# Why adaptation by default: on the seven unseen cells measured (docs/history/RESULTS-2026-11.md "Issue 20:
 # every lever measured") the adapted path never lost (+0.00 where the gate closed, +1.35 dB
 # where it opened), while the released checkpoint alone lost up to 0.22 dB, 0.04 on this room.
 # Why these settings: 3000 sparse iterations because the released restorer was trained on the

@@ -6,14 +6,16 @@
 #
 #   scripts/splat_baselines.sh OUT [splat train flags...]    e.g. --densify reference
 #
-# Needs build/gaussvid; the rooms are made in $SCENES (default /work/scenes) if missing.
-# Prints one Markdown row per cell to OUT/table.md.
+# Needs build/gaussvid (or $GV); the rooms are made in $SCENES (default /work/scenes) if missing.
+# CELLS="courtyard:6 synth-2:26" runs only those cells; SEED sets every run's seed (default 0).
+# Prints one Markdown row per cell to OUT/table.md; CPU seconds (user + system) are the time to
+# compare when the machine is shared, wall seconds only on an idle one.
 set -euo pipefail
 out=${1:?usage: splat_baselines.sh OUT [splat train flags...]}
 shift
 root=$(cd "$(dirname "$0")/.." && pwd)
 gv=${GV:-$root/build/gaussvid}
-shared=${GV_SHARED_DATA:-$root/../shared/data}/scenes
+shared_scenes=${GV_SHARED_DATA:-$root/data}/scenes
 scenes_dir=${SCENES:-/work/scenes}
 mkdir -p "$out" "$scenes_dir"
 for k in 1 2 3; do
@@ -23,8 +25,8 @@ done
 cell() { # scene-name scene-dir n
   local name=$1 dir=$2 n=$3 base="$out/$1_n$3"
   [ -f "$base.json" ] && return 0
-  /usr/bin/time -f "%e %M" -o "$base.time" "$gv" splat train --scene "$dir" --interval "$n" \
-    --iters 8000 --threads 1 --seed 0 --quiet --out "$base.ply" "${flags[@]}" > "$base.log" 2>&1
+  /usr/bin/time -f "%e %M %U %S" -o "$base.time" "$gv" splat train --scene "$dir" --interval "$n" \
+    --iters 8000 --threads 1 --seed "${SEED:-0}" --quiet --out "$base.ply" "${flags[@]}" > "$base.log" 2>&1
   "$gv" splat eval --model "$base.ply" --scene "$dir" --interval "$n" --json "$base.json.tmp" \
     --quiet > /dev/null
   mv "$base.json.tmp" "$base.json"
@@ -33,9 +35,11 @@ cell() { # scene-name scene-dir n
 flags=("$@")
 jobs=()
 for scene in courtyard livingroom synth-1 synth-2 synth-3; do
-  dir=$shared/$scene
+  dir=$shared_scenes/$scene
   [ -d "$dir" ] || dir=$scenes_dir/$scene
-  for n in 6 12 26; do jobs+=("$scene $dir $n"); done
+  for n in 6 12 26; do
+    if [ -z "${CELLS:-}" ] || [[ " $CELLS " == *" $scene:$n "* ]]; then jobs+=("$scene $dir $n"); fi
+  done
 done
 running=0
 for job in "${jobs[@]}"; do
@@ -46,20 +50,20 @@ done
 wait
 
 {
-  echo "| scene | n | held-out PSNR / SSIM | training views PSNR / SSIM | Gaussians | seconds | peak RSS MiB |"
-  echo "|---|---:|---|---|---:|---:|---:|"
+  echo "| scene | n | held-out PSNR / SSIM | training views PSNR / SSIM | Gaussians | wall s | CPU s | peak RSS MiB |"
+  echo "|---|---:|---|---|---:|---:|---:|---:|"
   for job in "${jobs[@]}"; do
     set -- $job
     base="$out/$1_n$3"
     gaussians=$(sed -n 's/.*: \([0-9]*\) Gaussians, SH.*/\1/p' "$base.log" | tail -1)
-    read -r secs kib < "$base.time"
-    python3 - "$base.json" "$1" "$3" "$gaussians" "$secs" "$kib" <<'EOF'
+    read -r secs kib user sys < "$base.time"
+    python3 - "$base.json" "$1" "$3" "$gaussians" "$secs" "$kib" "$user" "$sys" <<'EOF'
 import json, sys
 d = json.load(open(sys.argv[1]))
 h, t = d["held_out"], d["train"]
 print(f"| {sys.argv[2]} | {sys.argv[3]} | {h['psnr']:.2f} / {h['ssim']:.4f} | "
       f"{t['psnr']:.2f} / {t['ssim']:.4f} | {int(sys.argv[4]):,} | {float(sys.argv[5]):.0f} | "
-      f"{int(sys.argv[6]) / 1024:.0f} |")
+      f"{float(sys.argv[7]) + float(sys.argv[8]):.0f} | {int(sys.argv[6]) / 1024:.0f} |")
 EOF
   done
 } > "$out/table.md"

@@ -7,7 +7,7 @@
 # Usage: scripts/train_small.sh [WORK_DIR]          (default: runs/small)
 # Environment:
 #   GAUSSVID     the program (default build/gaussvid)
-#   SHARED       the shared scenes (default ../shared/data/scenes; courtyard trains,
+#   SHARED       the shared scenes (default data/scenes; courtyard trains,
 #                livingroom is held out)
 #   QUICK=1      a smoke run of every stage in a few minutes (tiny scenes, few steps): checks
 #                that the stages chain, measures nothing
@@ -27,7 +27,7 @@ export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} # threads sleep while they wa
 
 G=${GAUSSVID:-build/gaussvid}
 W=${1:-runs/small}
-SHARED=${SHARED:-../shared/data/scenes}
+SHARED=${SHARED:-data/scenes}
 QUICK=${QUICK:-0}
 
 TRAIN_SEEDS=${TRAIN_SEEDS:-"11 12 13"}

@@ -74,7 +74,7 @@ static inline const char *check_shared_scenes(void)
 {
     static char dir[4096];
     const char *base = getenv("GV_SHARED_DATA");
-    snprintf(dir, sizeof dir, "%s/scenes", base ? base : "../shared/data");
+    snprintf(dir, sizeof dir, "%s/scenes", base ? base : "data");
     FILE *f;
     char probe[4200];
     snprintf(probe, sizeof probe, "%s/courtyard/transforms.json", dir);

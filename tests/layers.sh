@@ -75,7 +75,7 @@ while read -r f; do
     done < <(grep -E '^[[:space:]]*#[[:space:]]*include[[:space:]]+"' "$f")
 done < <(find src bench include -name '*.[ch]' | sort)
 
-# CBLAS is the tensor engine's (DESIGN 10: GEMM behind a narrow interface): only src/nn/ calls
+# CBLAS is the tensor engine's (docs/ARCHITECTURE.md 10: GEMM behind a narrow interface): only src/nn/ calls
 # it, besides main.c, which names the kernel OpenBLAS chose, and the benchmark of the engine
 # against plain SGEMM.
 for f in $(grep -rlE '#[[:space:]]*include[[:space:]]+<cblas.h>' src bench); do

@@ -1,4 +1,4 @@
-/* The DiT with VACE and dual-stream camera injection on the tiny preset (DESIGN 6.3-6.6):
+/* The DiT with VACE and dual-stream camera injection on the tiny preset (docs/ARCHITECTURE.md 6.3-6.6):
  * shapes of every variant, the zero-initialised paths, the camera stream's exact independence
  * from the noisy latent and t, the asymmetric mask, the camera cache, RoPE positions of camera
  * tokens, the per-frame restorer, the VACE context and bad inputs. */
@@ -82,7 +82,7 @@ static void test_head_layout(void)
 
 /* Paper eq. (3) and reference 3.1: at initialisation the camera encoder's output and the VACE
  * hints are exactly zero, so cameras cannot change the output and zero hints equal no VACE;
- * the camera tokens still take part in attention (DESIGN 6.5): measure that difference. */
+ * the camera tokens still take part in attention (docs/ARCHITECTURE.md 6.5): measure that difference. */
 static void test_zero_init(void)
 {
     gv_dit m;
@@ -134,7 +134,7 @@ static void test_zero_init(void)
     }
     printf("at initialisation, with vs without the camera stream (tiny, random base): max |diff| %.3e, "
            "relative L2 %.3e (output RMS %.3e)\n", worst, sqrt(diff / ref), sqrt(ref / (double)n));
-    CHECK(worst > 0 && isfinite(worst)); /* DESIGN 6.5: only approximately equal */
+    CHECK(worst > 0 && isfinite(worst)); /* docs/ARCHITECTURE.md 6.5: only approximately equal */
     free(cams_a), free(cams_b), free(no_stream), free(saved);
     gv_graph_free(&g);
     gv_dit_free(&m);
@@ -158,7 +158,7 @@ static float *camera_activations(const gv_dit_trace *tr, int L, int64_t *n)
     return out;
 }
 
-/* DESIGN 6.5: the camera stream never depends on the noisy latent or on t (bit-identical),
+/* docs/ARCHITECTURE.md 6.5: the camera stream never depends on the noisy latent or on t (bit-identical),
  * while the video output does depend on the cameras once the encoder is trained. */
 static void test_camera_stream_invariance(void)
 {
@@ -251,7 +251,7 @@ static void test_asymmetric_mask(void)
     gv_dit_free(&m);
 }
 
-/* DESIGN 6.5: the camera stream computed once per clip and reused across sampling steps gives
+/* docs/ARCHITECTURE.md 6.5: the camera stream computed once per clip and reused across sampling steps gives
  * the outputs of recomputing it, bit for bit, at every step. */
 static void test_camera_cache(void)
 {
@@ -314,7 +314,7 @@ static void test_camera_cache(void)
     gv_dit_free(&dual);
 }
 
-/* Camera token i takes the RoPE position of video token i (DESIGN 6.5). */
+/* Camera token i takes the RoPE position of video token i (docs/ARCHITECTURE.md 6.5). */
 static void test_rope_positions(void)
 {
     int pos[3 * 12], cam[3 * 12];
@@ -403,7 +403,7 @@ static void test_token_count(void)
     }
 }
 
-/* Reference 3.3 step 4 and DESIGN 6.3 / 6.6. */
+/* Reference 3.3 step 4 and docs/ARCHITECTURE.md 6.3 / 6.6. */
 static void test_vace_context(void)
 {
     float mask[9];

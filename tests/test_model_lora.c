@@ -1,4 +1,4 @@
-/* LoRA (DESIGN 6.7) and weights by name: zero B gives the base output, merged equals unmerged,
+/* LoRA (docs/ARCHITECTURE.md 6.7) and weights by name: zero B gives the base output, merged equals unmerged,
  * what fine-tuning trains (and that the frozen base owns no gradient buffers), save / load
  * round trips of a whole model and of adapters alone onto a base checkpoint, files with
  * missing, unexpected or mis-shaped tensors, and the published Wan presets' tensor names

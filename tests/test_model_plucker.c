@@ -1,4 +1,4 @@
-/* Plücker ray fields (paper 3.3.1, DESIGN 6.4): hand-computed rays of hand-built cameras,
+/* Plücker ray fields (paper 3.3.1, docs/ARCHITECTURE.md 6.4): hand-computed rays of hand-built cameras,
  * invariance of the encoder's input under a global rigid motion and a global scale of all
  * cameras, the temporal packing, and bad cameras. */
 #include "check.h"

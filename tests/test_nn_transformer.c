@@ -1,4 +1,4 @@
-/* Composite check: a two-block transformer in the shape of the restorer (DESIGN.md 6.3-6.5):
+/* Composite check: a two-block transformer in the shape of the restorer (docs/ARCHITECTURE.md 6.3-6.5):
  * adaptive-LayerNorm modulation (shift, scale, gate from a conditioning vector; the camera
  * stream modulated from its own vector), q/k RMSNorm, 3D RoPE shared by the video tokens and
  * the camera tokens aligned with them, joint attention with the asymmetric mask (video

@@ -1,5 +1,5 @@
 /* Restoration (restore.h): the samplers' time grids against the reference's table, their math
- * on exact velocities (one step returns z0*; Euler ends at (1 - t0) z-hat + t0 z0*, DESIGN 7),
+ * on exact velocities (one step returns z0*; Euler ends at (1 - t0) z-hat + t0 z0*, docs/ARCHITECTURE.md 7),
  * noise averaging, reproducibility, the camera cache, both compositions against our own
  * decoding, the identity check (residual composition gives the baseline exactly), the
  * evaluation table against PSNR computed here, its JSON and Markdown, and bad inputs. */
@@ -113,7 +113,7 @@ static void test_sampler_math(void)
     f.calls = 0;
     CHECK(gv_sample(&s, fake_knows_noise, &f, z_hat, N, 77, out) == 0 && f.calls == 4);
     CHECK_NEAR(rf_max_diff(out, z_star, N), 0, 1e-6);
-    /* Euler on the same velocity stops at (1 - t0) z-hat + t0 z0*, not z0* (DESIGN 7) */
+    /* Euler on the same velocity stops at (1 - t0) z-hat + t0 z0*, not z0* (docs/ARCHITECTURE.md 7) */
     CHECK(gv_sampler_from_name("released", &s) == 0);
     f.calls = 0;
     CHECK(gv_sample(&s, fake_knows_noise_const, &f, z_hat, N, 77, out) == 0 && f.calls == 10);

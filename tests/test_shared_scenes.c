@@ -1,4 +1,4 @@
-/* The shared scenes (../shared/data/scenes; skipped when absent): courtyard's point cloud
+/* The shared scenes (data/scenes; skipped when absent): courtyard's point cloud
  * reads as written, and both descriptions of courtyard and livingroom (COLMAP and
  * transforms.json) load and describe the same cameras. */
 #include <math.h>

@@ -1,6 +1,13 @@
 # Every tests/test_*.c is one unit-test program (label "unit", also run under the
 # sanitizers); every tests/cli/*.sh drives the gaussvid program (label "cli").
-set(GV_SHARED_DATA ${CMAKE_SOURCE_DIR}/../shared/data)
+# The shared scenes (courtyard, livingroom; docs/SCENES.md) are not in the repository: the
+# tests that need them look in GV_SHARED_DATA/scenes and are skipped without them. It is
+# data/ in the source tree (a copy or a link) unless GV_SHARED_DATA is set when CMake runs.
+if(DEFINED ENV{GV_SHARED_DATA})
+  set(GV_SHARED_DATA $ENV{GV_SHARED_DATA})
+else()
+  set(GV_SHARED_DATA ${CMAKE_SOURCE_DIR}/data)
+endif()
 
 # The test programs get the OpenBLAS kernels the gaussvid program chooses for itself
 # (src/cli/main.c): on a CPU whose model OpenBLAS does not know it falls back to SSE3 kernels,
@@ -46,8 +53,16 @@ gv_add_test_programs(itest_*.c integration)
 # The modules' order: no module includes a header of one above it (docs/LAYERS.md).
 gv_add_test(layers layout bash ${CMAKE_SOURCE_DIR}/tests/layers.sh ${CMAKE_SOURCE_DIR})
 
+# The browser test's helper: how much of a screenshot's rectangle is unlike a colour.
+add_executable(png_unlike ${CMAKE_SOURCE_DIR}/tests/report/png_unlike.c)
+target_link_libraries(png_unlike PRIVATE gaussvid_lib)
+
 file(GLOB GV_CLI_TESTS CONFIGURE_DEPENDS ${CMAKE_SOURCE_DIR}/tests/cli/*.sh)
 foreach(script ${GV_CLI_TESTS})
   get_filename_component(name ${script} NAME_WE)
-  gv_add_test(cli_${name} cli bash ${script} $<TARGET_FILE:gaussvid>)
+  set(helpers "")
+  if(name STREQUAL "report_browser")
+    set(helpers $<TARGET_FILE:png_unlike>)
+  endif()
+  gv_add_test(cli_${name} cli bash ${script} $<TARGET_FILE:gaussvid> ${helpers})
 endforeach()

@@ -1,4 +1,4 @@
-/* Adapting the restorer to one scene (`gaussvid adapt`; DESIGN.md section 12; docs/ADAPT.md):
+/* Adapting the restorer to one scene (`gaussvid adapt`; docs/ARCHITECTURE.md section 12; docs/ADAPT.md):
  * the scene's internal pairs (internal_pairs.h) are built, part of them held back; the adapters
  * of a cross-scene checkpoint (LoRA and the camera encoder) are fine-tuned on the rest with a
  * learning rate that decays to zero, keeping the step the held-back pairs liked best; the

@@ -1,5 +1,5 @@
 /* What the restoration network is conditioned on, for one 5-frame clip (paper 3.3, 3.4;
- * DESIGN 6.3, 7; docs/RESTORATION.md): the normalised VAE latents of the ground truth (z0*)
+ * docs/ARCHITECTURE.md 6.3, 7; docs/RESTORATION.md): the normalised VAE latents of the ground truth (z0*)
  * and of the input clip (z-hat), the VACE context and the Plücker field of the 5 cameras;
  * and the latent cache that encodes a dataset's clips once.
  *

@@ -1,5 +1,5 @@
-/* The paired clip dataset of the paper's section 3.2 (DESIGN.md section 8; docs/FORMATS-DATASET.md):
- * for every scene and sparsity interval n, a sparse 3DGS trained on frames 0, n, 2n, ...
+/* The paired clip dataset of the paper's section 3.2 (docs/ARCHITECTURE.md section 8;
+ * docs/FORMATS-DATASET.md): for every scene and sparsity interval n, a sparse 3DGS trained on frames 0, n, 2n, ...
  * and stopped early renders the held-out frames (artifact simulation); 5-frame clips are
  * sampled clean anchor, three corrupted frames, clean anchor, with their ground truth,
  * intrinsics and poses, one safetensors file each, listed in manifest.json.

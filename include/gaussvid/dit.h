@@ -1,4 +1,4 @@
-/* The restoration network's transformer side (DESIGN.md 6.3-6.7, paper 3.3): the Wan2.1 DiT
+/* The restoration network's transformer side (docs/ARCHITECTURE.md 6.3-6.7, paper 3.3): the Wan2.1 DiT
  * with its VACE context branch, the Plücker camera token encoder, dual-stream camera
  * injection, the ablation variants and LoRA. Inputs are VAE latents (the VAE is in vae.h).
  *
@@ -28,7 +28,7 @@ typedef struct {
 /* One Wan attention block (reference 2.5); VACE blocks add before_proj / after_proj. */
 typedef struct {
     gv_tensor *modulation;        /* [1, 6, D]: shift, scale, gate (attention), then FFN */
-    gv_tensor *camera_modulation; /* [1, 6, D] the camera stream's own (DESIGN 6.5), or NULL */
+    gv_tensor *camera_modulation; /* [1, 6, D] the camera stream's own (docs/ARCHITECTURE.md 6.5), or NULL */
     gv_dit_linear q, k, v, o;
     gv_tensor *norm_q, *norm_k;   /* [D] RMSNorm gains, or NULL without qk_norm */
     gv_tensor *norm3_w, *norm3_b; /* LayerNorm before cross-attention, or NULL */
@@ -38,7 +38,7 @@ typedef struct {
     gv_dit_linear before_proj, after_proj; /* VACE block 0 / every VACE block (w NULL else) */
 } gv_dit_block;
 
-/* The Plücker token encoder (paper 3.3.1; DESIGN 6.4). Decomposed: conv_m, conv_d and the
+/* The Plücker token encoder (paper 3.3.1; docs/ARCHITECTURE.md 6.4). Decomposed: conv_m, conv_d and the
  * cross-gating MLPs; monolithic and early fusion: conv and the residual MLP. */
 typedef struct {
     gv_tensor *conv_m_w, *conv_m_b, *conv_d_w, *conv_d_b;
@@ -100,7 +100,7 @@ int gv_dit_merge_lora(gv_dit *m);
 
 /* ---- forward ------------------------------------------------------------------------------ */
 /* The camera stream of one clip, computed once and reused at every sampling step (it does not
- * depend on the noisy latent or t: DESIGN 6.5). Stale once the weights change. */
+ * depend on the noisy latent or t: docs/ARCHITECTURE.md 6.5). Stale once the weights change. */
 typedef struct {
     gv_graph graph;               /* owns the tensors below */
     int batch, grid[3];           /* token grid (frames, rows, columns) */
@@ -141,13 +141,13 @@ gv_tensor *gv_dit_forward(gv_dit *m, gv_graph *g, const gv_dit_inputs *in);
 int gv_dit_camera_cache_build(gv_dit *m, gv_tensor *plucker, gv_dit_camera_cache *cache);
 void gv_dit_camera_cache_free(gv_dit_camera_cache *cache);
 /* Integer RoPE positions (frame, row, column) of the video tokens of a grid in token order;
- * camera token i takes the position of video token i (DESIGN 6.5). pos holds 3 N ints. */
+ * camera token i takes the position of video token i (docs/ARCHITECTURE.md 6.5). pos holds 3 N ints. */
 void gv_dit_video_positions(int frames, int rows, int cols, int *pos);
 void gv_dit_camera_positions(int frames, int rows, int cols, int *pos);
 /* The camera encoder alone: x_c [B, N, D] from the packed ray field. */
 gv_tensor *gv_camera_encoder_forward(const gv_dit *m, gv_graph *g, gv_tensor *plucker);
 
-/* ---- VACE context (reference 3.3; DESIGN 6.3) ------------------------------------------- */
+/* ---- VACE context (reference 3.3; docs/ARCHITECTURE.md 6.3) ------------------------------------------- */
 /* The pixel mask M of each of `frames` frames for an anchors variant (0 = inactive anchor,
  * 1 = reactive): none: all 1; first: frame 0 is 0; both: frames 0 and frames-1 are 0. */
 int gv_vace_frame_mask(gv_anchors anchors, int frames, float *mask);

@@ -1,4 +1,4 @@
-/* Evaluation (DESIGN 9): the restoration tables of the paper (baseline against restored, per
+/* Evaluation (docs/ARCHITECTURE.md 9): the restoration tables of the paper (baseline against restored, per
  * interval n) and the VAE's evaluation (its reconstruction quality, and what residual decoding
  * gives on dataset clips). PSNR and SSIM as metrics.h computes them; LPIPS as lpips.h. */
 #ifndef GAUSSVID_EVAL_H

@@ -1,4 +1,4 @@
-/* Scene-internal pairs (DESIGN.md section 12; docs/FORMATS-DATASET.md "Scene-internal pairs"):
+/* Scene-internal pairs (docs/ARCHITECTURE.md section 12; docs/FORMATS-DATASET.md "Scene-internal pairs"):
  * the supervision a sparse scene holds about itself, for adapting the restorer to it.
  *
  * With interval n the scene's training views are frames 0, n, 2n, ... (T = 1 + (F - 1) / n of

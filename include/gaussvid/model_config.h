@@ -1,6 +1,6 @@
 /* The configuration of a whole GaussVid restoration model: the Wan2.1 DiT with its VACE
  * context branch, the Wan2.1-family causal 3D VAE, the Plücker camera encoder, LoRA and the
- * ablation variants (DESIGN.md section 6). The DiT and VAE fields carry the official Wan2.1
+ * ablation variants (docs/ARCHITECTURE.md section 6). The DiT and VAE fields carry the official Wan2.1
  * hyper-parameter names (reference wan-vace-gaussvid.md sections 2.1, 3.1, 4.1, including the
  * official spelling "temperal_downsample"); the rest are this project's. Configs are JSON
  * files (docs/MODEL.md) or built-in presets: tiny, small, wan2.1-vace-1.3b, wan2.1-vace-14b. */
@@ -51,7 +51,7 @@ typedef struct {
     double gamma_init; /* learnable output scale, paper: 0.1 */
 } gv_camera_config;
 
-/* LoRA adapters (DESIGN 6.7). A target matches a linear layer of a block whose path within
+/* LoRA adapters (docs/ARCHITECTURE.md 6.7). A target matches a linear layer of a block whose path within
  * the block equals it or ends with "." + target (PEFT's rule), so "q" adapts self_attn.q and
  * cross_attn.q. */
 typedef struct {
@@ -65,7 +65,7 @@ typedef struct {
 typedef enum { GV_CAMERA_NONE, GV_CAMERA_EARLY, GV_CAMERA_MONOLITHIC, GV_CAMERA_DECOMPOSED } gv_camera_variant;
 typedef enum { GV_ANCHORS_NONE, GV_ANCHORS_FIRST, GV_ANCHORS_BOTH } gv_anchors;
 
-/* The ablation switches of DESIGN 6.6 that change the network. */
+/* The ablation switches of docs/ARCHITECTURE.md 6.6 that change the network. */
 typedef struct {
     gv_camera_variant camera;
     gv_anchors anchors;
@@ -129,7 +129,7 @@ int gv_model_has_camera_stream(const gv_model_config *c);
 
 /* Forward cost of the DiT + VACE + camera encoder on one clip (multiply-add = 2 FLOP),
  * assuming dense attention over video + camera tokens (the asymmetric mask applied, not
- * exploited). The VAE is not included: clip latents are cached (DESIGN 6.2). */
+ * exploited). The VAE is not included: clip latents are cached (docs/ARCHITECTURE.md 6.2). */
 typedef struct {
     int latent_frames, latent_height, latent_width;
     int video_tokens, camera_tokens;      /* per DiT evaluation */

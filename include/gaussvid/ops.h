@@ -76,7 +76,7 @@ void gv_gemm_nt(int M, int N, int K, const float *A, int lda, const float *B, in
                 int ldc);
 
 /* LoRA layer (nn/lora.c): x W^T + bias + scale (x A^T) B^T with A [r, in], B [out, r]; W is
- * usually frozen and B zero-initialised (DESIGN.md 6.7). Made of linear ops. */
+ * usually frozen and B zero-initialised (docs/ARCHITECTURE.md 6.7). Made of linear ops. */
 gv_tensor *gv_lora_linear(gv_graph *g, gv_tensor *x, gv_tensor *w, gv_tensor *bias,
                           gv_tensor *a, gv_tensor *b, float scale);
 /* Merges an adapter into its base weight: W += scale B A. */

@@ -1,4 +1,4 @@
-/* Plücker ray fields of a clip's cameras (paper 3.3.1, DESIGN 6.4): for every pixel centre
+/* Plücker ray fields of a clip's cameras (paper 3.3.1, docs/ARCHITECTURE.md 6.4): for every pixel centre
  * the unit direction d = R^-1 K^-1 (u, v, 1)^T and the moment m = C x d with C = -R^-1 T, all
  * poses expressed in the first anchor camera's frame and translations divided by a per-clip
  * length (gv_plucker_scale), then packed in time as the VAE packs frames, so that the camera

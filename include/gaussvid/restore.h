@@ -1,5 +1,5 @@
 /* Restoration of a clip's intermediate frames with a trained network, and its evaluation
- * (paper 3.4, 4; DESIGN 7 "note on inference", 9; docs/RESTORATION.md).
+ * (paper 3.4, 4; docs/ARCHITECTURE.md 7 "note on inference", 9; docs/RESTORATION.md).
  *
  * The network was trained on x_t = (1 - t) z-hat + t eps with target v = eps - z0*, so for an
  * exact network eps - v(x_t) = z0* while x_t - t v = (1 - t) z-hat + t z0*. The samplers:
@@ -80,7 +80,7 @@ int gv_sample(const gv_sampler *s, gv_velocity_fn velocity, void *ctx, const flo
 /* ---- the network on one clip (restore.c) ------------------------------------------------- */
 /* A clip's stream seed: the sampler's seed and the clip's name (its file name), hashed. */
 uint64_t gv_restore_clip_seed(uint64_t seed, const char *clip_name);
-/* The network's velocity for one clip, with the camera stream computed once (DESIGN 6.5). */
+/* The network's velocity for one clip, with the camera stream computed once (docs/ARCHITECTURE.md 6.5). */
 typedef struct {
     gv_dit *model;
     const gv_clip_latents *clip;

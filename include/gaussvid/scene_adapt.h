@@ -1,4 +1,4 @@
-/* Per-scene adaptation, the training side (docs/ADAPT.md; DESIGN.md section 12): holding back
+/* Per-scene adaptation, the training side (docs/ADAPT.md; docs/ARCHITECTURE.md section 12): holding back
  * part of a scene's internal pairs, fine-tuning on the rest while keeping the best step, and
  * the scene checkpoint.
  *

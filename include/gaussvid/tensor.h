@@ -1,4 +1,4 @@
-/* Tensors with reverse-mode automatic differentiation (DESIGN.md section 6.1).
+/* Tensors with reverse-mode automatic differentiation (docs/ARCHITECTURE.md section 6.1).
  *
  * A gv_tensor is a dense, contiguous, row-major float32 array of 0..5 dimensions. Every
  * operation (ops.h) computes its output at once and, when gradients are wanted, records the

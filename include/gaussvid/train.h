@@ -1,4 +1,4 @@
-/* Training the restoration network (DESIGN.md section 7; paper section 3.4; docs/TRAINING.md):
+/* Training the restoration network (docs/ARCHITECTURE.md section 7; paper section 3.4; docs/TRAINING.md):
  * base pretraining (standard flow matching on clean clips, the anchors as VACE context) and
  * GaussVid fine-tuning (flow matching anchored at the corrupted latent, the progressive latent
  * loss, the difficulty curriculum), with atomic checkpoints that resume bit for bit. */

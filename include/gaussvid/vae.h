@@ -1,5 +1,5 @@
 /* The causal 3D VAE of the restoration network: Wan2.1's VAE family at any size
- * (DESIGN.md 6.2; reference wan-vace-gaussvid.md section 4; docs/VAE.md).
+ * (docs/ARCHITECTURE.md 6.2; reference wan-vace-gaussvid.md section 4; docs/VAE.md).
  *
  * Videos are channel-first float tensors [B, 3, T, H, W] with values in [-1, 1] (pixel p in
  * 0..255 is p / 127.5 - 1). T = 1 + k r frames (r = the temporal factor, 4 in Wan, 1 or 4 in
@@ -143,7 +143,7 @@ int gv_vae_decode_residual(gv_vae *v, const float *render, const float *z_render
 /* out = clamp(render + restored - rendered, -1, 1) over n values (the step above). */
 void gv_vae_compose_residual(const float *render, const float *restored, const float *rendered, int64_t n, float *out);
 
-/* ---- the VACE context of a clip (model/vace_context.c; reference 3.3; DESIGN 6.3) -------- */
+/* ---- the VACE context of a clip (model/vace_context.c; reference 3.3; docs/ARCHITECTURE.md 6.3) */
 /* [E(V (1 - M)) | E(V M) | M on the latent grid] for video V [3, T, H, W] in [-1, 1] and the
  * anchors variant's mask M (gv_vace_frame_mask: 0 on anchors, 1 on frames to restore):
  * out [2 z + s^2, T', H/s, W/s] (dit.h: the `vace` input). Latents are normalised when the

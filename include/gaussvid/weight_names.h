@@ -57,8 +57,8 @@ typedef struct {
     int64_t shape[GV_WEIGHT_MAX_RANK];
     int64_t numel;
     gv_module module;
-    int trainable;       /* trained in GaussVid fine-tuning (DESIGN 6.7): LoRA and camera, and the
-                            output layer of the residual variant */
+    int trainable;       /* trained in GaussVid fine-tuning (docs/ARCHITECTURE.md 6.7): LoRA and
+                            camera, and the output layer of the residual variant */
     gv_weight_init init;
     double init_value;   /* GV_INIT_CONSTANT only */
 } gv_weight_spec;

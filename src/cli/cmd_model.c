@@ -98,7 +98,7 @@ static void print_issues(const char *kind, const gv_weight_issue *items, int n)
 }
 
 /* Tensors of the model (listed name and shape, a float dtype) holding a NaN or an infinity:
- * the loaders refuse them (DESIGN 4), so they decide whether the files load too. */
+ * the loaders refuse them (docs/ARCHITECTURE.md 4), so they decide whether the files load too. */
 typedef struct {
     int n;
     gv_weight_issue items[SHOWN_PER_KIND];

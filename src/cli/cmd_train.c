@@ -1,5 +1,5 @@
 /* gaussvid train --clips DIR --base base.safetensors --out ckpt.safetensors: GaussVid
- * fine-tuning (paper 3.4; DESIGN 7): flow matching anchored at the corrupted latent, the
+ * fine-tuning (paper 3.4; docs/ARCHITECTURE.md 7): flow matching anchored at the corrupted latent, the
  * progressive latent loss and the difficulty curriculum; LoRA and the full camera encoder
  * trained, the base frozen. Flags switch each part off for the ablations (docs/TRAINING.md). */
 #include <stdio.h>

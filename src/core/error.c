@@ -9,7 +9,7 @@ static _Thread_local char error_message[1024];
 
 /* A message quotes what it found in the file (a key, a name, a line), and the file may hold
  * any byte: a control byte (a newline in a JSON key, say) becomes '?', so the message stays
- * the one line DESIGN.md section 4 promises. */
+ * the one line docs/ARCHITECTURE.md section 4 promises. */
 static void keep_one_line(char *s)
 {
     for (; *s; s++)

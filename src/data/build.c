@@ -1,4 +1,4 @@
-/* `dataset build` (paper section 3.2; DESIGN.md section 8): every scene at every interval n,
+/* `dataset build` (paper section 3.2; docs/ARCHITECTURE.md section 8): every scene at every interval n,
  * resumable. Every scene and interval is checked before anything is trained; finished runs
  * (listed in the manifest, with their clips and record present) are skipped; temporaries left
  * by a killed build are removed; the options must match those of the runs already built. */

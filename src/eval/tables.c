@@ -1,4 +1,4 @@
-/* Evaluation tables of restoration (paper section 4, DESIGN 9): PSNR and SSIM of the three
+/* Evaluation tables of restoration (paper section 4, docs/ARCHITECTURE.md 9): PSNR and SSIM of the three
  * intermediate frames of every clip against their ground truth, for the corrupted input
  * (baseline) and the restored frames (and LPIPS when weights are given), per interval n and over
  * all frames, as Markdown and JSON. */

@@ -1,4 +1,4 @@
-/* The camera stream computed once per clip (DESIGN 6.5): camera tokens are modulated from
+/* The camera stream computed once per clip (docs/ARCHITECTURE.md 6.5): camera tokens are modulated from
  * t = 0 and attend to camera keys only, so nothing in them depends on the noisy latent or on
  * t. Sampling computes them (and every block's camera keys and values) once and passes the
  * cache to each step; the video tokens then attend to the cached keys and values. The values

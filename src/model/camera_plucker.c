@@ -1,4 +1,4 @@
-/* Plücker ray fields (paper 3.3.1, DESIGN 6.4; the authors' construction in reference 1.4 and
+/* Plücker ray fields (paper 3.3.1, docs/ARCHITECTURE.md 6.4; the authors' construction in reference 1.4 and
  * 6.1): unit directions and moments per pixel centre, relative to the first anchor camera,
  * translations divided by a per-clip length, packed in time like the VAE packs frames. */
 #include "gaussvid/plucker.h"
@@ -50,7 +50,7 @@ int gv_plucker_rays(const gv_camera *cam, const gv_camera *ref, double scale, in
     if (!(isfinite(scale) && scale > 0)) return gv_fail("plucker: translation scale %g must be positive", scale);
     if (check_camera(cam, "plucker: camera") || check_camera(ref, "plucker: reference camera")) return -1;
     /* In the reference frame: directions rotate by Q = R_ref R^T, centres map to
-     * R_ref C + t_ref (DESIGN 6.4: poses relative to the first anchor camera). */
+     * R_ref C + t_ref (docs/ARCHITECTURE.md 6.4: poses relative to the first anchor camera). */
     double Q[9], C[3], Cr[3];
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++) {

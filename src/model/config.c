@@ -225,7 +225,7 @@ int gv_model_config_validate(const gv_model_config *c, const char *source)
     if (!isfinite(k->gamma_init)) return gv_config_bad(src, "camera.gamma_init", "is not finite");
     if ((unsigned)c->variant.camera > GV_CAMERA_DECOMPOSED) return gv_config_bad(src, "variant.camera", "unknown variant");
     if ((unsigned)c->variant.anchors > GV_ANCHORS_BOTH) return gv_config_bad(src, "variant.anchors", "unknown anchor mode");
-    if (c->variant.per_frame && c->variant.anchors != GV_ANCHORS_NONE) /* DESIGN 6.6 */
+    if (c->variant.per_frame && c->variant.anchors != GV_ANCHORS_NONE) /* docs/ARCHITECTURE.md 6.6 */
         return gv_config_bad(src, "variant.anchors", "a per-frame restorer has no anchors: use \"none\" (got \"%s\")",
                              gv_anchors_name(c->variant.anchors));
     if (c->variant.skip && c->variant.residual)

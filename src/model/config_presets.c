@@ -95,7 +95,7 @@ static void preset_small(gv_model_config *c)
     d->patch_size[0] = 1;
     d->patch_size[1] = d->patch_size[2] = 4;
     d->in_dim = d->out_dim = 16;
-    d->cross_attn = 0; /* DESIGN 6.3: no text in the small preset */
+    d->cross_attn = 0; /* docs/ARCHITECTURE.md 6.3: no text in the small preset */
     gv_vae_config *v = &c->vae;
     v->dim = 32;
     v->z_dim = 16;

@@ -1,4 +1,4 @@
-/* The DiT forward pass (reference 2.2-2.7, 3.2; paper 3.3; DESIGN 6.3-6.6): patch embedding,
+/* The DiT forward pass (reference 2.2-2.7, 3.2; paper 3.3; docs/ARCHITECTURE.md 6.3-6.6): patch embedding,
  * time and text embeddings, the camera tokens of the chosen variant, VACE hints, the main
  * blocks, the head and unpatchify. */
 #include "model/dit_internal.h"
@@ -59,7 +59,7 @@ void gv_dit_video_positions(int frames, int rows, int cols, int *pos)
 void gv_dit_camera_positions(int frames, int rows, int cols, int *pos)
 {
     /* The camera encoder's output grid is the video token grid, in the same order: camera
-     * token i sits where video token i does (DESIGN 6.5). */
+     * token i sits where video token i does (docs/ARCHITECTURE.md 6.5). */
     gv_dit_video_positions(frames, rows, cols, pos);
 }
 
@@ -87,7 +87,7 @@ static int check_inputs(const gv_dit *m, const gv_dit_inputs *in, int grid[3])
                            d->patch_size[0], d->patch_size[1], d->patch_size[2]);
         grid[a] = x->shape[2 + a] / d->patch_size[a];
     }
-    if (m->cfg.variant.per_frame && x->shape[2] != 1) /* DESIGN 6.6: no temporal attention */
+    if (m->cfg.variant.per_frame && x->shape[2] != 1) /* docs/ARCHITECTURE.md 6.6: no temporal attention */
         return gv_fail("dit: the per-frame restorer takes single-frame latents (frames as the batch), got %d frames",
                        x->shape[2]);
     int B = x->shape[0];
@@ -225,7 +225,8 @@ gv_tensor *gv_dit_forward(gv_dit *m, gv_graph *g, const gv_dit_inputs *in)
     if (cameras) {
         xc = tr->camera_tokens = in->camera_cache ? in->camera_cache->tokens : gv_camera_encoder_forward(m, g, in->plucker);
         if (!xc) return NULL;
-        if (!stream) x = gv_add(g, x, xc); /* early fusion: added to the video tokens once (DESIGN 6.6) */
+        /* early fusion: added to the video tokens once (docs/ARCHITECTURE.md 6.6) */
+        if (!stream) x = gv_add(g, x, xc);
     }
     if (in->vace && gv_vace_hints(g, m, in, x, e0, rope, ctx, tr->hints) != 0) return NULL;
     const int done0 = in->vace ? d->n_vace_layers : 0;

@@ -1,6 +1,7 @@
-/* Wan2.1 attention blocks (reference 2.5) and their dual-stream form (paper 3.3.2, DESIGN 6.5):
- * adaptive-LayerNorm modulation, self-attention with RMSNorm on q and k over the full width and
- * 3D RoPE, cross-attention to the text context, GELU(tanh) FFN, gated residuals.
+/* Wan2.1 attention blocks (reference 2.5) and their dual-stream form (paper 3.3.2,
+ * docs/ARCHITECTURE.md 6.5): adaptive-LayerNorm modulation, self-attention with RMSNorm on q
+ * and k over the full width and 3D RoPE, cross-attention to the text context, GELU(tanh) FFN,
+ * gated residuals.
  *
  * Camera tokens go through the same block weights (LoRA included) with their own modulation
  * (the block's camera_modulation + e0 of t = 0), attend to camera keys only, and skip
@@ -121,7 +122,7 @@ int gv_dit_block_joint(gv_graph *g, const gv_dit *m, const gv_dit_block *b, gv_t
 
 gv_tensor *gv_dit_camera_e0(gv_graph *g, const gv_dit *m)
 {
-    const float zero = 0.0f; /* DESIGN 6.5: the camera stream is modulated as at t = 0 */
+    const float zero = 0.0f; /* docs/ARCHITECTURE.md 6.5: the camera stream is modulated as at t = 0 */
     gv_tensor *e, *e0;
     return gv_dit_time(g, m, &zero, 1, &e, &e0) == 0 ? e0 : NULL;
 }

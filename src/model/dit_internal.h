@@ -19,7 +19,7 @@ int gv_dit_time(gv_graph *g, const gv_dit *m, const float *t, int batch, gv_tens
 
 /* A block on the video tokens x [B, N, D] (or a VACE block on its context tokens): modulated
  * self-attention whose keys and values are extended by the camera stream's kc, vc when given
- * (video queries see every key, DESIGN 6.5), cross-attention to ctx (or none), FFN. */
+ * (video queries see every key, docs/ARCHITECTURE.md 6.5), cross-attention to ctx (or none), FFN. */
 gv_tensor *gv_dit_block_video(gv_graph *g, const gv_dit *m, const gv_dit_block *b, gv_tensor *x, gv_tensor *e0,
                               gv_tensor *rope, gv_tensor *ctx, gv_tensor *kc, gv_tensor *vc);
 /* The same block on the camera tokens: its own modulation mod_c [1 or B, 6, D], attention to
@@ -32,7 +32,7 @@ gv_tensor *gv_dit_block_camera(gv_graph *g, const gv_dit *m, const gv_dit_block 
 int gv_dit_block_joint(gv_graph *g, const gv_dit *m, const gv_dit_block *b, gv_tensor **xv, gv_tensor **xc,
                        gv_tensor *e0, gv_tensor *mod_c, gv_tensor *rope2, gv_tensor *mask, gv_tensor *ctx);
 
-/* The camera tokens' modulation e0(t = 0) as [1, 6, D] (DESIGN 6.5). */
+/* The camera tokens' modulation e0(t = 0) as [1, 6, D] (docs/ARCHITECTURE.md 6.5). */
 gv_tensor *gv_dit_camera_e0(gv_graph *g, const gv_dit *m);
 /* Runs the camera stream through every main block; fills x, k, v (num_layers each). */
 int gv_dit_camera_stream(gv_graph *g, const gv_dit *m, gv_tensor *xc, gv_tensor *rope, gv_tensor **x, gv_tensor **k,

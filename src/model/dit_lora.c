@@ -1,4 +1,4 @@
-/* LoRA in the DiT (DESIGN 6.7): adapters of rank r on the targeted linear layers of the main
+/* LoRA in the DiT (docs/ARCHITECTURE.md 6.7): adapters of rank r on the targeted linear layers of the main
  * and VACE blocks (q, k, v, o and the FFN by default), y = x W^T + b + (alpha / r) (x A^T) B^T
  * with B zero-initialised; what is trainable in each mode; merging adapters into the base. */
 #include "model/dit_internal.h"

@@ -36,7 +36,8 @@ int gv_dit_read_param(gv_dit *m, const gv_st_file *f, gv_param *p, int *kept)
         return gv_param_set_bf16(p, t->data, 1);
     }
     if (gv_param_alloc(p) != 0 || gv_st_read_f32(f, p->t.name, p->t.data, shape, p->t.ndim) != 0) return -1;
-    for (int64_t k = 0; k < p->t.numel; k++) /* DESIGN 4: a NaN is bad input, named with its file */
+    /* docs/ARCHITECTURE.md 4: a NaN is bad input, named with its file */
+    for (int64_t k = 0; k < p->t.numel; k++)
         if (!isfinite(p->t.data[k]))
             return gv_fail("%s: %s: value element %lld is %g", f->path, p->t.name, (long long)k, (double)p->t.data[k]);
     return 0;

@@ -1,4 +1,4 @@
-/* The VACE context of a clip from its frames (reference 3.3 steps 2-5; DESIGN 6.3): the
+/* The VACE context of a clip from its frames (reference 3.3 steps 2-5; docs/ARCHITECTURE.md 6.3): the
  * inactive part V (1 - M) and the reactive part V M encoded by the VAE, and the mask on the
  * latent grid, concatenated. For restoration M = 0 on the anchors (the anchors variant) and 1
  * on the frames to restore; the coverage variant gives M per pixel (condition.h). */

@@ -51,7 +51,7 @@ int gv_weight_add(gv_weight_list *l, gv_module m, gv_weight_init init, const cha
         w->numel *= shape[k];
     }
     w->module = m;
-    w->trainable = m == GV_MODULE_CAMERA || m == GV_MODULE_LORA; /* DESIGN 6.7 */
+    w->trainable = m == GV_MODULE_CAMERA || m == GV_MODULE_LORA; /* docs/ARCHITECTURE.md 6.7 */
     w->init = init;
     l->n++;
     return 0;
@@ -147,7 +147,7 @@ static int add_vace(gv_weight_list *l, const gv_dit_config *d)
     return 0;
 }
 
-/* The Plücker token encoder (paper 3.3.1, DESIGN 6.4). Decomposed: conv_m on the moment
+/* The Plücker token encoder (paper 3.3.1, docs/ARCHITECTURE.md 6.4). Decomposed: conv_m on the moment
  * channels o x d, conv_d on the directions d, cross-gating MLPs gate_d2m (input F_d, gates
  * F_m) and gate_m2d, then proj (2C -> P -> D, last layer zero), LayerNorm and gamma.
  * Monolithic and early fusion: one conv over all 6 channels to 2C and a residual MLP
@@ -183,7 +183,7 @@ static int add_camera(gv_weight_list *l, const gv_model_config *c)
         gv_weight_add(l, m, GV_INIT_CONSTANT, "camera_encoder", "gamma", GV_SHAPE(1)))
         return -1;
     l->items[l->n - 1].init_value = c->camera.gamma_init;
-    /* DESIGN 6.5: the camera stream's own modulation in every block (the layout of
+    /* docs/ARCHITECTURE.md 6.5: the camera stream's own modulation in every block (the layout of
      * blocks.N.modulation: shift, scale, gate for attention, then for the FFN). */
     char block[32];
     for (int i = 0; gv_model_has_camera_stream(c) && i < c->dit.num_layers; i++) {

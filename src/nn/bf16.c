@@ -99,7 +99,7 @@ const float *gv_tensor_values(const gv_tensor *t, float **scratch)
         return NULL;
     }
     int64_t bad = first_non_finite(t->bf16, t->numel);
-    if (bad >= 0) { /* DESIGN 4: a NaN in a weight is bad input, named */
+    if (bad >= 0) { /* docs/ARCHITECTURE.md 4: a NaN in a weight is bad input, named */
         free(out);
         gv_fail("%s: value element %lld is not finite", t->name ? t->name : "weight", (long long)bad);
         return NULL;

@@ -1,6 +1,6 @@
 /* LoRA (Hu et al., "LoRA: Low-rank adaptation of large language models", 2021): a frozen
  * linear layer plus a trainable low-rank update, y = x W^T + bias + scale (x A^T) B^T. Built
- * from linear ops, so the frozen W costs no weight-gradient work (DESIGN.md section 6.7). */
+ * from linear ops, so the frozen W costs no weight-gradient work (docs/ARCHITECTURE.md section 6.7). */
 #include <cblas.h>
 
 #include "nn/nn_internal.h"

@@ -1,5 +1,5 @@
 /* The network's velocity on one clip for the samplers: the clip's VACE context, its camera
- * stream computed once (DESIGN 6.5: it depends neither on x_t nor on t) and, for configs with
+ * stream computed once (docs/ARCHITECTURE.md 6.5: it depends neither on x_t nor on t) and, for configs with
  * cross-attention, the model's text context (the prompt's, or zeros: gv_dit_text_input); and
  * the restored latent of a clip. */
 #include <stdlib.h>

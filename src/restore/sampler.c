@@ -1,5 +1,5 @@
 /* Samplers that turn the corrupted latent z-hat into the restored latent with the network's
- * velocity (restore.h; DESIGN 7 "note on inference"). Pure arithmetic on float arrays: the
+ * velocity (restore.h; docs/ARCHITECTURE.md 7 "note on inference"). Pure arithmetic on float arrays: the
  * network comes in through a callback, so the tests run the samplers on exact velocities. */
 #include <math.h>
 #include <stdlib.h>

@@ -1,4 +1,4 @@
-/* The sparse-view split (DESIGN.md section 5): for an interval n, frames 0, n, 2n, ... (in
+/* The sparse-view split (docs/ARCHITECTURE.md section 5): for an interval n, frames 0, n, 2n, ... (in
  * image-name order) are the training views and every other frame is held out. */
 #include "gaussvid/core.h"
 #include "gaussvid/scene.h"

@@ -57,8 +57,8 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
 double gv_splat_densify_threshold(const gv_splat_train_options *opt)
 {
     if (opt->densify.grad_threshold > 0) return opt->densify.grad_threshold;
-    /* The reference's densify_grad_threshold; lean doubles it (docs/RESULTS.md, "Lean
-     * density control"). */
+    /* The reference's densify_grad_threshold; lean doubles it (docs/RESULTS.md section 1;
+     * docs/history/RESULTS-2026-11.md, "Lean density control"). */
     return opt->densify_mode == GV_DENSIFY_LEAN ? 0.0004 : 0.0002;
 }
 

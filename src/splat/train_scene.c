@@ -1,4 +1,4 @@
-/* Training on the sparse split of a scene: frames 0, n, 2n, ... (DESIGN.md section 5), or
+/* Training on the sparse split of a scene: frames 0, n, 2n, ... (docs/ARCHITECTURE.md section 5), or
  * on any list of its frames (the subsets of adapt's internal pairs), with a progress bar showing the iteration, the loss, the Gaussian count, the rate and
  * the time left. */
 #include <stdlib.h>

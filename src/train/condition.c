@@ -1,4 +1,4 @@
-/* The network's conditioning of one clip (paper 3.3, 3.4; DESIGN 6.3, 7): VAE latents of the
+/* The network's conditioning of one clip (paper 3.3, 3.4; docs/ARCHITECTURE.md 6.3, 7): VAE latents of the
  * ground truth and of the input, the VACE context of the anchors variant and the Plücker
  * field of the cameras. condition.h says what each array holds and why. */
 #include <stdlib.h>

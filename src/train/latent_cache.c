@@ -1,4 +1,4 @@
-/* The latent cache of a dataset (DESIGN 6.2: clip latents are computed once): one safetensors
+/* The latent cache of a dataset (docs/ARCHITECTURE.md 6.2: clip latents are computed once): one safetensors
  * file in the dataset folder per (VAE weights, anchors variant, per-frame, coverage), holding for every
  * clip its z_clean, z_corrupt and VACE context, and in "__metadata__" the checksum of each
  * clip file it was computed from. condition.h gives the rules. */

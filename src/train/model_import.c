@@ -95,7 +95,7 @@ static int check_release_config(const char *path, const gv_model_config *c)
 
 /* ---- the DiT tensors ------------------------------------------------------------------------ */
 
-/* A NaN or an infinity in a weight is bad input (DESIGN 4): checked chunk by chunk. */
+/* A NaN or an infinity in a weight is bad input (docs/ARCHITECTURE.md 4): checked chunk by chunk. */
 static int check_finite(const gv_st_file *f, const gv_st_tensor *t, float *buffer)
 {
     for (int64_t lo = 0; lo < t->n_elements; lo += CHECK_CHUNK) {

@@ -1,4 +1,4 @@
-/* One training sample of either objective (DESIGN 7; paper 3.4, eq. 6-10): the noisy latent
+/* One training sample of either objective (docs/ARCHITECTURE.md 7; paper 3.4, eq. 6-10): the noisy latent
  * and its velocity target, the VACE context the objective allows, the DiT forward pass, the
  * flow-matching loss, the progressive latent loss on x_t - t v, and the backward pass. */
 #include <math.h>

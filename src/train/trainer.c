@@ -1,4 +1,4 @@
-/* The training loop shared by base pretraining and GaussVid fine-tuning (DESIGN 7): a step
+/* The training loop shared by base pretraining and GaussVid fine-tuning (docs/ARCHITECTURE.md 7): a step
  * takes `batch` clips (chosen by the curriculum, or shuffled), accumulates the gradients of the
  * objective over them, clips the gradient norm and takes one AdamW step. A step depends only on
  * its number, the data position and the weights and moments, all of which the checkpoints
@@ -60,8 +60,9 @@ typedef struct {
  * clips: unweighted, the few clips with the largest errors would decide what is learned,
  * and the clips already rendered well (small n) would count for nothing. Identities are
  * floored at 1e-3 of their mean so that a clip rendered perfectly has a finite weight.
- * Measured on the recipe's clips it is much worse than equal weights (docs/RESULTS.md): the
- * near-perfect clips take most of the weight and their error is noise, so it is off by default. */
+ * Measured on the recipe's clips it is much worse than equal weights
+ * (docs/history/RESULTS-2026-11.md, "The relative loss in the network"): the near-perfect
+ * clips take most of the weight and their error is noise, so it is off by default. */
 int gv_train_relative_weights(const gv_latent_set *data, double **out)
 {
     double *w = malloc((size_t)data->count * sizeof *w), mean_id = 0, mean_w = 0;

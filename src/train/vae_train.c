@@ -1,4 +1,4 @@
-/* Training the VAE from scratch on scene frames (the small preset's VAE; DESIGN 6.2):
+/* Training the VAE from scratch on scene frames (the small preset's VAE; docs/ARCHITECTURE.md 6.2):
  * random crops of clips (random frame spacing, mirroring and time reversal), the objective
  * of vae_train.h, AdamW with warm-up and cosine decay, gradient clipping, atomic checkpoints
  * with the optimiser state, an optional held-out evaluation, and the latent statistics at

@@ -56,7 +56,7 @@ has "R3C: 24 of 24 photos registered"
 check "the room's cameras within 1 degree and 1 %" python3 "$LIB/compare_cameras.py" R3/sparse/0/images.txt \
     R3C/sparse/0/images.txt 1 0.01
 
-LIVINGROOM="${GV_SHARED_DATA:-../shared/data}/scenes/livingroom"
+LIVINGROOM="${GV_SHARED_DATA:-data}/scenes/livingroom"
 if [ ! -d "$LIVINGROOM" ]; then
     echo "scene_colmap.sh: no shared livingroom scene ($LIVINGROOM): the camera check is skipped"
     cli_finish

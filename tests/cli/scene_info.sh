@@ -108,7 +108,7 @@ has "split       interval 1: 2 training frames, 0 held out"
 
 # The shared scenes, when present.
 for name in courtyard livingroom; do
-    D="${GV_SHARED_DATA:-../shared/data}/scenes/$name"
+    D="${GV_SHARED_DATA:-data}/scenes/$name"
     if [ ! -d "$D" ]; then echo "shared scene $D not found: skipped"; continue; fi
     expect 0 "shared $name" -- "$G" scene info "$D" --interval 8 --json --quiet
     has '"frames":	160'

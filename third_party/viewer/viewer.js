@@ -17,11 +17,37 @@ function base64Bytes(text) {
   return bytes;
 }
 
+// The page's load event waits until the model is on the canvas, so whatever waits for "load"
+// (a user's browser, a headless --screenshot, a test) sees the model and not an empty canvas:
+// Spark decodes and sorts the Gaussians in a worker, after the page itself has loaded. A
+// hidden frame whose document is open delays its parent's load event until it is closed; it
+// is closed at the first frame that shows anything, on an error, or after LOAD_WAIT_MS.
+const LOAD_WAIT_MS = 60000;
+function holdLoadEvent() {
+  const frame = document.createElement("iframe");
+  frame.hidden = true;
+  document.body.appendChild(frame);
+  frame.contentDocument.open();
+  let held = true;
+  const release = () => {
+    if (!held) return;
+    held = false;
+    frame.contentDocument.close();
+    frame.remove();
+  };
+  setTimeout(release, LOAD_WAIT_MS);
+  return { release, held: () => held };
+}
+const loadHold = holdLoadEvent();
+
 const statusLine = document.getElementById("status");
 function say(text) {
   statusLine.textContent = text;
 }
-window.addEventListener("error", (e) => say(`error: ${e.message}`));
+window.addEventListener("error", (e) => {
+  say(`error: ${e.message}`);
+  loadHold.release();
+});
 
 const path = JSON.parse(document.getElementById("gv-path").textContent);
 const cameras = path.cameras.map((c) => {
@@ -47,17 +73,6 @@ let dirty = true;
 const redraw = () => (dirty = true);
 const spark = new SparkRenderer({ renderer, onDirty: redraw });
 scene.add(spark);
-
-const modelElement = document.getElementById("gv-model");
-const model = new SplatMesh({
-  fileBytes: base64Bytes(modelElement.textContent),
-  fileType: SplatFileType.SPLAT,
-  onLoad: () => {
-    document.body.dataset.state = "loaded";
-    redraw();
-  },
-});
-scene.add(model);
 
 // The canvas keeps the scene's aspect ratio, as large as the window allows.
 function fit() {
@@ -126,6 +141,7 @@ canvas.addEventListener("dblclick", () => {
 const yawQ = new THREE.Quaternion(), pitchQ = new THREE.Quaternion();
 const X = new THREE.Vector3(1, 0, 0), Y = new THREE.Vector3(0, 1, 0);
 function place(s) {
+  s = Number.isFinite(s) ? Math.min(Math.max(s, 0), cameras.length - 1) : 0;
   const i = Math.min(Math.floor(s), cameras.length - 1);
   const j = Math.min(i + 1, cameras.length - 1);
   const f = s - i;
@@ -140,9 +156,12 @@ function place(s) {
       (nearest.train ? " (training view)" : "") + ` \u00b7 ${path.gaussians} Gaussians \u00b7 ${path.title}`);
 }
 
-let last = performance.now();
-renderer.setAnimationLoop((now) => {
-  const dt = Math.min(0.1, (now - last) / 1000);
+// One animation frame. The clock starts at the first frame: a frame's timestamp can be
+// earlier than anything read while the page loaded, and a negative step would move the path
+// position below its first camera.
+let last = null;
+function drawFrame(now) {
+  const dt = last === null ? 0 : Math.min(0.1, Math.max(0, (now - last) / 1000));
   last = now;
   if (state.playing && cameras.length > 1) {
     state.s += dt * FRAMES_PER_SECOND * Number(speed.value);
@@ -154,4 +173,38 @@ renderer.setAnimationLoop((now) => {
   dirty = false;
   place(state.s);
   renderer.render(scene, camera);
+  if (loadHold.held() && canvasShowsSomething()) loadHold.release();
+}
+
+// Whether any pixel of the canvas differs from the background (read back only while the load
+// event is held).
+function canvasShowsSomething() {
+  const gl = renderer.getContext();
+  const w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
+  const pixels = new Uint8Array(w * h * 4);
+  // Spark may leave a pixel-pack buffer bound (its own read-backs), which readPixels into an
+  // array refuses: unbind it around the read.
+  const packBuffer = gl.getParameter(gl.PIXEL_PACK_BUFFER_BINDING);
+  gl.bindBuffer(gl.PIXEL_PACK_BUFFER, null);
+  gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, pixels);
+  gl.bindBuffer(gl.PIXEL_PACK_BUFFER, packBuffer);
+  const bg = path.background === "white" ? 255 : 0;
+  for (let i = 0; i < pixels.length; i += 4)
+    if (pixels[i] !== bg || pixels[i + 1] !== bg || pixels[i + 2] !== bg) return true;
+  return false;
+}
+
+// The model comes last, when the path, the scene, the camera and the controls all exist, and
+// the animation loop starts only when the model has loaded: nothing depends on how fast the
+// page or the model loads.
+const modelElement = document.getElementById("gv-model");
+const model = new SplatMesh({
+  fileBytes: base64Bytes(modelElement.textContent),
+  fileType: SplatFileType.SPLAT,
+  onLoad: () => {
+    document.body.dataset.state = "loaded";
+    redraw();
+    renderer.setAnimationLoop(drawFrame);
+  },
 });
+scene.add(model);
