@@ -137,6 +137,11 @@ int gv_find_program(const char *name, char *out, size_t size);
 /* Runs argv[0] (a path) with argv, stdin from /dev/null, stdout and stderr appended to log;
  * returns its exit status (128 + signal when killed), or -1 with a message when it cannot start. */
 int gv_run_logged(const char *const argv[], const char *log);
+/* As gv_run_logged, and each line of the program's output (stdout and stderr; a carriage
+ * return also ends a line; longer than 1023 bytes, cut) is given to on_line as it comes, for a
+ * progress bar that follows the program. */
+typedef void (*gv_line_fn)(const char *line, void *ctx);
+int gv_run_watched(const char *const argv[], const char *log, gv_line_fn on_line, void *ctx);
 /* Writes text and a final newline to path atomically (JSON documents, manifests). */
 int gv_write_text_atomic(const char *path, const char *text);
 

@@ -16,14 +16,32 @@ typedef struct {
     uint8_t *pixels;             /* width * height * channels bytes */
 } gv_image;
 
-/* Reads a PNG or a JPEG (recognised by its signature, not its name). */
+/* Reads a PNG or a JPEG (recognised by its signature, not its name); a JPEG is turned
+ * upright as its EXIF orientation tag says (the way viewers show it). */
 int gv_image_read(const char *path, gv_image *out);
+/* Reads the pixels as stored, without applying the EXIF orientation, which goes to
+ * *orientation (1..8; 1 for a PNG or a JPEG without the tag). COLMAP reads JPEGs this way. */
+int gv_image_read_stored(const char *path, gv_image *out, int *orientation);
 /* Reads and converts to 3-channel RGB (grey is replicated; alpha is dropped). */
 int gv_image_read_rgb(const char *path, gv_image *out);
 /* Reads a PNG (1..4 channels out). */
 int gv_image_read_png(const char *path, gv_image *out);
-/* Reads a baseline or progressive JPEG (1 channel for greyscale, else 3; CMYK refused). */
+/* Reads a baseline or progressive JPEG (1 channel for greyscale, else 3; CMYK refused),
+ * turned upright by its EXIF orientation; _stored leaves it as stored and gives the tag. */
 int gv_image_read_jpeg(const char *path, gv_image *out);
+int gv_image_read_jpeg_stored(const char *path, gv_image *out, int *orientation);
+/* Writes a baseline JPEG (1 or 3 channels; quality 1..100, 4:2:0 chroma as libjpeg's
+ * default) under a temporary name renamed into place; no EXIF segment, so upright as stored. */
+int gv_image_write_jpeg(const char *path, const gv_image *img, int quality);
+/* The EXIF orientation tag (0x0112) of an APP1 segment's payload, which starts "Exif\0\0":
+ * 1..8 as the EXIF standard numbers them (1 upright, 3 turned 180 degrees, 6 to be turned 90
+ * degrees clockwise, 8 counter-clockwise, 2, 4, 5, 7 their mirror images); 1 when the tag is
+ * absent or the segment malformed. Both byte orders (II, MM). */
+int gv_exif_orientation(const uint8_t *segment, size_t size);
+/* The image as a viewer shows a photo with that EXIF orientation: pixel (u, v) of out is
+ * stored pixel (v, H-1-u) for 6, (W-1-v, u) for 8, (W-1-u, H-1-v) for 3, and so on; 5..8
+ * swap width and height. */
+int gv_image_orient(const gv_image *in, int orientation, gv_image *out);
 /* Writes an 8-bit PNG with the image's channel count, under a temporary name renamed
  * into place. */
 int gv_image_write_png(const char *path, const gv_image *img);

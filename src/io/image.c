@@ -34,10 +34,12 @@ void gv_image_free(gv_image *img)
     memset(img, 0, sizeof *img);
 }
 
-int gv_image_read(const char *path, gv_image *out)
+/* PNG, JPEG as stored (*orientation its EXIF tag), or JPEG turned upright. */
+static int read_any(const char *path, gv_image *out, int *orientation)
 {
     static const uint8_t png_signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     memset(out, 0, sizeof *out);
+    if (orientation) *orientation = 1;
     FILE *f = fopen(path, "rb");
     if (!f) return gv_fail("%s: cannot open: %s", path, strerror(errno));
     uint8_t head[8];
@@ -48,8 +50,15 @@ int gv_image_read(const char *path, gv_image *out)
     if (got == 0) return gv_fail("%s: empty file, not an image", path);
     if (got == 8 && !memcmp(head, png_signature, 8)) return gv_image_read_png(path, out);
     if (got >= 3 && head[0] == 0xFF && head[1] == 0xD8 && head[2] == 0xFF)
-        return gv_image_read_jpeg(path, out);
+        return orientation ? gv_image_read_jpeg_stored(path, out, orientation) : gv_image_read_jpeg(path, out);
     return gv_fail("%s: not a PNG or JPEG image (unrecognised signature)", path);
+}
+
+int gv_image_read(const char *path, gv_image *out) { return read_any(path, out, NULL); }
+
+int gv_image_read_stored(const char *path, gv_image *out, int *orientation)
+{
+    return read_any(path, out, orientation);
 }
 
 int gv_image_to_rgb(const gv_image *in, gv_image *out)

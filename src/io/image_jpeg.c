@@ -1,7 +1,8 @@
 /* JPEG read through libjpeg(-turbo). libjpeg's default error handler calls exit(); ours
  * records the message and longjmps back, and treats warnings (corrupt data, premature end
  * of file) as errors too, like TurboJPEG's "stop on warning", so that a damaged file is
- * refused instead of decoded into grey blocks. */
+ * refused instead of decoded into grey blocks. libjpeg does not apply the EXIF orientation:
+ * the APP1 segments are kept and the tag read (image_orient.c). */
 #include "gaussvid/image.h"
 #include "gaussvid/core.h"
 
@@ -32,6 +33,7 @@ typedef struct {
     struct jpeg_decompress_struct cinfo;
     jpeg_error_context err;
     gv_image *img;
+    int orientation; /* EXIF, 1..8; 1 without a tag */
 } jpeg_context;
 
 static void jpeg_error_exit_jump(j_common_ptr cinfo)
@@ -54,7 +56,14 @@ static int jpeg_read_body(jpeg_context *ctx)
     if (setjmp(ctx->err.jump)) return -1;
     jpeg_create_decompress(cinfo);
     jpeg_stdio_src(cinfo, ctx->f);
+    jpeg_save_markers(cinfo, JPEG_APP0 + 1, 0xFFFF);
     jpeg_read_header(cinfo, TRUE);
+    ctx->orientation = 1;
+    for (jpeg_saved_marker_ptr m = cinfo->marker_list; m; m = m->next)
+        if (m->marker == JPEG_APP0 + 1 && m->data_length >= 6 && !memcmp(m->data, "Exif\0\0", 6)) {
+            ctx->orientation = gv_exif_orientation(m->data, m->data_length);
+            break;
+        }
     if (cinfo->jpeg_color_space == JCS_CMYK || cinfo->jpeg_color_space == JCS_YCCK) {
         snprintf(ctx->err.message, sizeof ctx->err.message, "CMYK JPEG is not supported");
         return -1;
@@ -86,9 +95,10 @@ static int jpeg_read_body(jpeg_context *ctx)
     return 0;
 }
 
-int gv_image_read_jpeg(const char *path, gv_image *out)
+int gv_image_read_jpeg_stored(const char *path, gv_image *out, int *orientation)
 {
     memset(out, 0, sizeof *out);
+    *orientation = 1;
     struct stat st;
     if (stat(path, &st) != 0) return gv_fail("%s: cannot open: %s", path, strerror(errno));
     if (!S_ISREG(st.st_mode)) return gv_fail("%s: not a regular file", path);
@@ -108,5 +118,17 @@ int gv_image_read_jpeg(const char *path, gv_image *out)
         gv_image_free(out);
         return gv_fail("%s: corrupt or truncated JPEG: %s", path, ctx.err.message);
     }
+    *orientation = ctx.orientation;
     return 0;
+}
+
+int gv_image_read_jpeg(const char *path, gv_image *out)
+{
+    int orientation;
+    if (gv_image_read_jpeg_stored(path, out, &orientation)) return -1;
+    if (orientation == 1) return 0;
+    gv_image stored = *out;
+    int rc = gv_image_orient(&stored, orientation, out);
+    gv_image_free(&stored);
+    return rc ? gv_fail_context("%s", path) : 0;
 }
