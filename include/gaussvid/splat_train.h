@@ -169,6 +169,19 @@ void gv_splat_mcmc_noise(gv_gaussians *g, const gv_splat_mcmc_params *p, double 
 void gv_splat_mcmc_regularize(const gv_gaussians *g, const gv_splat_mcmc_params *p,
                               gv_gaussians *grad);
 
+/* ---- dropgaussian.c ---------------------------------------------------------------------
+ * DropGaussian (Park et al., CVPR 2025): each training render leaves out a random share of
+ * the Gaussians, the rate growing linearly to GV_DROP_RATE_MAX over the run, and multiplies
+ * the opacity of the kept ones by 1 / (1 - rate), so that the expected render is the full
+ * one; renders outside training are untouched. */
+#define GV_DROP_RATE_MAX 0.2
+/* GV_DROP_RATE_MAX x iteration / iterations (iteration 1 .. iterations). */
+double gv_splat_drop_rate(int iteration, int iterations);
+/* scale[i] for i < n: 0 (dropped, with probability rate) or 1 / (1 - rate), from the
+ * uniform number (seed, i): the same whatever the thread count. Returns the number dropped.
+ * rate must be in [0, 1). */
+int gv_splat_drop_draw(int n, double rate, uint64_t seed, float *scale);
+
 /* ---- train.c ----------------------------------------------------------------------------
  * The loop of 3DGS train.py (section 14.1). Iteration numbers start at 1. */
 typedef enum { GV_BG_BLACK, GV_BG_WHITE, GV_BG_RANDOM } gv_splat_background;
@@ -194,6 +207,15 @@ typedef enum { GV_DENSIFY_MCMC, GV_DENSIFY_REFERENCE, GV_DENSIFY_LEAN } gv_splat
 int gv_splat_densify_mode_parse(const char *name);
 const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode);
 
+/* Prior-free sparse-view regularisers (docs/SPLAT_TRAINING.md, "Sparse-view regularisers"),
+ * a set of bits; none of them is the plain 3DGS of the reference. */
+enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0 };
+#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian"
+/* "none", or names separated by commas (each once) -> the set; -1 for anything else. */
+int gv_splat_regularize_parse(const char *list);
+/* The set as the parser reads it ("none", "dropgaussian", ...) into buf of size n. */
+void gv_splat_regularize_name(int set, char *buf, size_t n);
+
 typedef struct {
     int iterations;             /* 30000 (the reference); --iters 8000 for the dataset */
     int sh_degree;              /* 3 */
@@ -205,6 +227,7 @@ typedef struct {
     gv_splat_adam_config adam;
     gv_splat_schedule schedule;
     gv_splat_densify_mode densify_mode;
+    int regularize;             /* GV_REGULARIZE_* bits; 0: plain 3DGS */
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
@@ -234,6 +257,8 @@ typedef struct {
     gv_splat_renderer renderer;
     gv_splat_loss_work loss_work;
     float *render, *target, *d_render, *densify_grad;
+    float *drop_scale;          /* DropGaussian: this iteration's opacity scales (capacity) */
+    long dropped;               /* DropGaussian: Gaussians left out, summed over iterations */
     int *all_rows;              /* 0, 1, 2, ...: Adam's list when every row has a gradient */
     int *order, order_pos;      /* this epoch's shuffled view order */
     gv_rng view_rng, bg_rng, split_rng;

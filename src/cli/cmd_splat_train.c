@@ -13,7 +13,7 @@ int cmd_splat_train(int argc, char **argv)
     const char *scene_dir = NULL, *out = NULL;
     int interval = 1, iterations = 30000, downscale = 1, sh_degree = 3, seed = 0;
     double grad_threshold = 0, per_pixel = 0, regularizer = 0.01;
-    const char *densify = "reference";
+    const char *densify = "reference", *regularize = "none";
     int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &scene_dir, "DIR", "scene folder (COLMAP sparse/0 or transforms.json)", 1},
@@ -28,6 +28,7 @@ int cmd_splat_train(int argc, char **argv)
         {"sparse-adam", GV_FLAG_BOOL, &sparse_adam, NULL,
          "lean and reference: Adam on the visible Gaussians only (default: all; mcmc steps all)", 0},
         {"densify", GV_FLAG_STRING, &densify, "MODE", "reference (default), lean or mcmc", 0},
+        {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "sparse-view regularisers: none (default) or dropgaussian", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
         {"regularizer", GV_FLAG_DOUBLE, &regularizer, "X", "mcmc: weight of the opacity and scale L1 terms (default 0.01)", 0},
@@ -47,7 +48,12 @@ int cmd_splat_train(int argc, char **argv)
         "             Gaussians are relocated onto opaque ones, the count grows by 5 % every\n"
         "             100 iterations from 500 until the budget (3DGS as MCMC): about 2.6x\n"
         "             faster, better held out on some scenes, worse on others\n"
-        "--iters N stops the schedule early (nothing is rescaled).\n"
+        "Sparse-view regularisers (--regularize, none = plain 3DGS):\n"
+        "  dropgaussian  each training render leaves out a random share of the Gaussians\n"
+        "             (0 growing linearly to 0.2 at the last iteration) and scales the\n"
+        "             opacity of the others by 1 / (1 - share); renders are unchanged\n"
+        "--iters N stops the schedule early (nothing is rescaled; the drop share\n"
+        "follows --iters).\n"
         "Same seed, inputs and --threads give the same model. See docs/SPLAT_TRAINING.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
@@ -79,6 +85,10 @@ int cmd_splat_train(int argc, char **argv)
         return 2;
     }
     opt.densify_mode = (gv_splat_densify_mode)mode;
+    if ((opt.regularize = gv_splat_regularize_parse(regularize)) < 0) {
+        fprintf(stderr, "gaussvid splat train: --regularize %s: expected " GV_REGULARIZE_NAMES "\n", regularize);
+        return 2;
+    }
     opt.mcmc.cap = max_gaussians;
     opt.mcmc.opacity_reg = opt.mcmc.scale_reg = regularizer;
     if (per_pixel > 0) opt.gaussians_per_pixel = per_pixel;

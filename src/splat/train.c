@@ -4,7 +4,8 @@
  *   2. one more SH degree at every multiple of sh_interval;
  *   3. next training view from a shuffled epoch order (train.py pops a random view from a
  *      stack refilled when empty: a permutation per epoch);
- *   4. background, render, loss 0.8 L1 + 0.2 (1 - SSIM), backward;
+ *   4. background, render (with DropGaussian, of a random share of the Gaussians:
+ *      src/splat/dropgaussian.c), loss 0.8 L1 + 0.2 (1 - SSIM), backward;
  *   5. while iteration < densify_until: densification statistics of the visible Gaussians;
  *      densify_and_prune when iteration > densify_from and a multiple of densify_interval;
  *      opacity reset at multiples of opacity_reset_interval;
@@ -16,6 +17,7 @@
  * train.py saves the model at that iteration before its densification, and steps Adam only
  * while iteration < iterations, so the model returned is the one the reference saves. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -28,7 +30,7 @@
 
 /* Philox streams of one training run, derived from the seed. */
 enum { STREAM_VIEWS = 1, STREAM_BACKGROUND = 2, STREAM_SPLIT = 3, STREAM_INIT = 4,
-       STREAM_NOISE = 5 };
+       STREAM_NOISE = 5, STREAM_DROP = 6 };
 
 static uint64_t stream_seed(uint64_t seed, int stream)
 {
@@ -75,13 +77,53 @@ const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode)
     return mode == GV_DENSIFY_MCMC ? "mcmc" : mode == GV_DENSIFY_LEAN ? "lean" : "reference";
 }
 
-/* The list 0 .. capacity - 1 (Adam's rows when a regulariser gives every row a gradient). */
+static const struct { const char *name; int bit; } REGULARIZERS[] = {
+    {"dropgaussian", GV_REGULARIZE_DROPGAUSSIAN},
+};
+enum { N_REGULARIZERS = sizeof REGULARIZERS / sizeof REGULARIZERS[0] };
+
+int gv_splat_regularize_parse(const char *list)
+{
+    if (strcmp(list, "none") == 0) return 0;
+    int set = 0;
+    const char *p = list;
+    for (;;) {
+        size_t len = strcspn(p, ",");
+        int bit = 0;
+        for (int k = 0; k < N_REGULARIZERS; k++)
+            if (strlen(REGULARIZERS[k].name) == len && strncmp(p, REGULARIZERS[k].name, len) == 0)
+                bit = REGULARIZERS[k].bit;
+        if (bit == 0 || (set & bit)) return -1; /* unknown, empty or repeated */
+        set |= bit;
+        if (p[len] == '\0') return set;
+        p += len + 1;
+    }
+}
+
+void gv_splat_regularize_name(int set, char *buf, size_t n)
+{
+    if (n == 0) return;
+    snprintf(buf, n, "%s", set == 0 ? "none" : "");
+    for (int k = 0; k < N_REGULARIZERS; k++)
+        if (set & REGULARIZERS[k].bit) {
+            size_t used = strlen(buf);
+            snprintf(buf + used, n - used, "%s%s", used ? "," : "", REGULARIZERS[k].name);
+        }
+}
+
+/* The list 0 .. capacity - 1 (Adam's rows when a regulariser gives every row a gradient),
+ * and DropGaussian's scales, for every row of the capacity. */
 static int grow_all_rows(gv_splat_trainer *t)
 {
     int *rows = realloc(t->all_rows, (size_t)t->params.capacity * sizeof(int));
     if (!rows) return -1;
     for (int i = 0; i < t->params.capacity; i++) rows[i] = i;
     t->all_rows = rows;
+    if (t->opt.regularize & GV_REGULARIZE_DROPGAUSSIAN) {
+        float *scale = realloc(t->drop_scale, (size_t)t->params.capacity * sizeof(float));
+        if (!scale) return -1;
+        t->drop_scale = scale;
+    }
     return 0;
 }
 
@@ -207,7 +249,7 @@ void gv_splat_trainer_free(gv_splat_trainer *t)
     gv_splat_renderer_free(&t->renderer);
     gv_splat_loss_free(&t->loss_work);
     free(t->views), free(t->order), free(t->render), free(t->target), free(t->d_render);
-    free(t->densify_grad), free(t->all_rows);
+    free(t->densify_grad), free(t->all_rows), free(t->drop_scale);
     memset(t, 0, sizeof *t);
 }
 
@@ -348,7 +390,16 @@ int gv_splat_trainer_step(gv_splat_trainer *t)
     background(t, bg);
 
     double t0 = gv_now();
-    if (gv_splat_render_forward(&t->renderer, &t->params, view, t->active_degree, bg, t->render))
+    const float *scale = NULL; /* DropGaussian: this render's opacity scales */
+    if (t->opt.regularize & GV_REGULARIZE_DROPGAUSSIAN) {
+        double rate = gv_splat_drop_rate(it, t->opt.iterations);
+        t->dropped += gv_splat_drop_draw(t->params.n, rate,
+                                         stream_seed(t->opt.seed, STREAM_DROP) + (uint64_t)it,
+                                         t->drop_scale);
+        scale = t->drop_scale;
+    }
+    if (gv_splat_render_forward_scaled(&t->renderer, &t->params, view, t->active_degree, bg,
+                                       scale, t->render))
         return gv_fail_context("train: iteration %d", it);
     double t1 = gv_now();
     gv_image_to_float(&t->images[v], t->target);

@@ -45,6 +45,21 @@ check "unknown --densify exits 2" test $? -eq 2
 check "unknown --densify explained" grep -q "expected lean, reference or mcmc" "$tmp/err.txt"
 check "unknown --densify: no model" test ! -e "$tmp/x.ply"
 
+# Regularisers: none is the default (plain 3DGS); DropGaussian trains another model, the
+# same for the same seed; unknown, empty or repeated names are usage errors.
+train "$tmp/none.ply" --regularize none > /dev/null 2>&1
+check "--regularize none is the default" cmp -s "$tmp/a.ply" "$tmp/none.ply"
+train "$tmp/drop1.ply" --regularize dropgaussian > /dev/null 2>&1
+train "$tmp/drop2.ply" --regularize dropgaussian > /dev/null 2>&1
+check "dropgaussian: same seed, same model" cmp -s "$tmp/drop1.ply" "$tmp/drop2.ply"
+check "dropgaussian is another model" test -s "$tmp/drop1.ply" -a -n "$(cmp "$tmp/a.ply" "$tmp/drop1.ply")"
+for bad in dropout dropgaussian,dropgaussian "" dropgaussian, none,dropgaussian; do
+    train "$tmp/x.ply" --regularize "$bad" > /dev/null 2> "$tmp/err.txt"
+    check "--regularize '$bad' exits 2" test $? -eq 2
+    check "--regularize '$bad' explained" grep -q "expected none or a comma-separated list" "$tmp/err.txt"
+done
+check "bad --regularize: no model" test ! -e "$tmp/x.ply"
+
 # Eval: 12 frames, 3 of them training views; JSON means and per-frame list.
 "$gaussvid" splat eval --model "$tmp/a.ply" --scene "$scene" --interval 4 --json "$tmp/e.json" > "$tmp/eval.txt"
 check "eval exits 0" test $? -eq 0
