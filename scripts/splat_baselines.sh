@@ -6,6 +6,9 @@
 #
 #   scripts/splat_baselines.sh OUT [splat train flags...]    e.g. --densify reference
 #
+# Without flags the cells train at `splat train`'s defaults (--densify lean since issue 38;
+# the earlier tables were the reference's: pass --densify reference to repeat them).
+#
 # Needs build/gaussvid; the rooms are made in $SCENES (default /work/scenes) if missing.
 # Prints one Markdown row per cell to OUT/table.md.
 set -euo pipefail

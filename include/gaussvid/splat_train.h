@@ -195,10 +195,12 @@ typedef struct {
 } gv_splat_schedule;
 
 /* How the model grows (docs/SPLAT_TRAINING.md, "Density control"):
- * - reference (the default): the paper's clone / split / prune with opacity resets;
+ * - reference (the library's default): the paper's clone / split / prune with opacity
+ *   resets; `dataset build` and `adapt` keep it (set explicitly there), so the restorer's
+ *   training pairs carry the paper's artifacts;
  * - lean: the same with the gradient threshold doubled (0.0004): a third of the Gaussians
- *   at 256x144 and 1.9x faster, the same mean held-out PSNR but 0.001 lower SSIM over the
- *   15-cell baseline table and two cells 0.3-0.5 dB below, so not the default;
+ *   at 256x144 and 1.9x faster at the same mean held-out PSNR (0.001 lower SSIM over the
+ *   15-cell baseline table); the default of `splat train`;
  * - mcmc: a budget that follows the training pixels, relocation of dead Gaussians. */
 typedef enum { GV_DENSIFY_MCMC, GV_DENSIFY_REFERENCE, GV_DENSIFY_LEAN } gv_splat_densify_mode;
 #define GV_DENSIFY_DEFAULT GV_DENSIFY_REFERENCE

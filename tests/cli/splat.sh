@@ -23,6 +23,9 @@ train "$tmp/a.ply" > "$tmp/train.txt" 2> "$tmp/train_err.txt"
 check "train exits 0" test $? -eq 0
 check "train writes the model" test -s "$tmp/a.ply"
 check "train prints the count" grep -q "Gaussians, SH degree 3, 60 iterations" "$tmp/train.txt"
+# 3 training views of 48x32 = 4608 pixels: the count over that, to three decimals.
+count=$(sed -n 's/.*: \([0-9]*\) Gaussians, SH degree.*/\1/p' "$tmp/train.txt")
+check "train prints Gaussians per training pixel" grep -q "$(awk -v n="$count" 'BEGIN { printf "%.3f Gaussians per training pixel", n / 4608 }')" "$tmp/train.txt"
 train "$tmp/b.ply" > /dev/null 2>&1
 check "same seed, same model" cmp -s "$tmp/a.ply" "$tmp/b.ply"
 train "$tmp/c.ply" --seed 6 --random-bg > /dev/null 2>&1
@@ -30,14 +33,14 @@ check "another seed, another model" test -s "$tmp/c.ply" -a -n "$(cmp "$tmp/a.pl
 "$gaussvid" splat train --scene "$scene" --iters 30 --sh-degree 1 --out "$tmp/d.ply" --quiet > "$tmp/d.txt"
 check "--sh-degree 1" grep -q "SH degree 1" "$tmp/d.txt"
 
-# Density control: the reference is the default; past the first densification (iteration
-# 600) lean's higher threshold gives another model, the reference's at threshold 0.0004; an
-# unknown mode is a usage error.
-train "$tmp/ref_default.ply" --iters 700 > /dev/null 2>&1
+# Density control: lean is the default; past the first densification (iteration 600) lean's
+# higher threshold gives another model, the reference's at threshold 0.0004; an unknown mode
+# is a usage error.
+train "$tmp/lean_default.ply" --iters 700 > /dev/null 2>&1
 train "$tmp/lean.ply" --iters 700 --densify lean > /dev/null 2>&1
 train "$tmp/lean_as_ref.ply" --iters 700 --densify reference --grad-threshold 0.0004 > /dev/null 2>&1
 train "$tmp/ref.ply" --iters 700 --densify reference > /dev/null 2>&1
-check "the reference is the default" cmp -s "$tmp/ref_default.ply" "$tmp/ref.ply"
+check "lean is the default" cmp -s "$tmp/lean_default.ply" "$tmp/lean.ply"
 check "lean = reference at threshold 0.0004" cmp -s "$tmp/lean.ply" "$tmp/lean_as_ref.ply"
 check "lean is another model" test -s "$tmp/ref.ply" -a -n "$(cmp "$tmp/lean.ply" "$tmp/ref.ply")"
 train "$tmp/x.ply" --densify dense > /dev/null 2> "$tmp/err.txt"
