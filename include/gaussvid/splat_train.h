@@ -20,6 +20,12 @@
  * to its k nearest other points (fewer when the cloud has fewer; 0 when it has one point).
  * xyz is n * 3. Fails on k < 1 or when memory runs out. */
 int gv_knn_mean_sq_dist(int n, const float *xyz, int k, float *out);
+/* The k nearest of the n points xyz to each of n_query points query (NULL: to each of the
+ * points themselves, each excluding itself): index and sq_dist are n_query * k, nearest
+ * first; -1 and INFINITY where there are fewer than k. Exact; ties keep the tree's order
+ * (the same for any thread count). Fails on k outside 1..16 or when memory runs out. */
+int gv_knn_neighbors(int n, const float *xyz, int n_query, const float *query, int k,
+                     int *index, double *sq_dist);
 
 /* ---- init.c -----------------------------------------------------------------------------
  * 3DGS create_from_pcd (section 3.1): SH DC from the colour, (rgb - 0.5) / C0, higher SH 0;
@@ -182,6 +188,16 @@ double gv_splat_drop_rate(int iteration, int iterations);
  * rate must be in [0, 1). */
 int gv_splat_drop_draw(int n, double rate, uint64_t seed, float *scale);
 
+/* ---- fsgs.c -----------------------------------------------------------------------------
+ * FSGS's proximity-guided unpooling (Zhu et al., ECCV 2024): a Gaussian whose proximity
+ * score, sqrt(mean squared distance to its GV_FSGS_NEIGHBORS nearest), exceeds threshold
+ * gets a new Gaussian at the midpoint to each of those neighbours: the source's scale,
+ * opacity and rotation, the mean of the two ends' SH. An edge between two such Gaussians
+ * that are each other's neighbours is grown once (from the lower row). New rows follow the
+ * model's (ordered by source row, then neighbour nearest first) with zero Adam moments. */
+#define GV_FSGS_NEIGHBORS 3
+int gv_splat_fsgs_unpool(gv_gaussians *g, gv_splat_adam *adam, double threshold, int *added);
+
 /* ---- train.c ----------------------------------------------------------------------------
  * The loop of 3DGS train.py (section 14.1). Iteration numbers start at 1. */
 typedef enum { GV_BG_BLACK, GV_BG_WHITE, GV_BG_RANDOM } gv_splat_background;
@@ -211,8 +227,8 @@ const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode);
 
 /* Prior-free sparse-view regularisers (docs/SPLAT_TRAINING.md, "Sparse-view regularisers"),
  * a set of bits; none of them is the plain 3DGS of the reference. */
-enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0 };
-#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian"
+enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0, GV_REGULARIZE_FSGS = 1 << 1 };
+#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian, fsgs"
 /* "none", or names separated by commas (each once) -> the set; -1 for anything else. */
 int gv_splat_regularize_parse(const char *list);
 /* The set as the parser reads it ("none", "dropgaussian", ...) into buf of size n. */
@@ -230,6 +246,7 @@ typedef struct {
     gv_splat_schedule schedule;
     gv_splat_densify_mode densify_mode;
     int regularize;             /* GV_REGULARIZE_* bits; 0: plain 3DGS */
+    double fsgs_distance;       /* FSGS: unpool above this proximity score x extent (0.1) */
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
@@ -261,6 +278,7 @@ typedef struct {
     float *render, *target, *d_render, *densify_grad;
     float *drop_scale;          /* DropGaussian: this iteration's opacity scales (capacity) */
     long dropped;               /* DropGaussian: Gaussians left out, summed over iterations */
+    long unpooled;              /* FSGS: Gaussians added by unpooling */
     int *all_rows;              /* 0, 1, 2, ...: Adam's list when every row has a gradient */
     int *order, order_pos;      /* this epoch's shuffled view order */
     gv_rng view_rng, bg_rng, split_rng;

@@ -54,6 +54,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     opt->densify_mode = GV_DENSIFY_DEFAULT;
     gv_splat_mcmc_defaults(&opt->mcmc);
     opt->gaussians_per_pixel = 0.02;
+    opt->fsgs_distance = 0.1;
 }
 
 double gv_splat_densify_threshold(const gv_splat_train_options *opt)
@@ -79,6 +80,7 @@ const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode)
 
 static const struct { const char *name; int bit; } REGULARIZERS[] = {
     {"dropgaussian", GV_REGULARIZE_DROPGAUSSIAN},
+    {"fsgs", GV_REGULARIZE_FSGS},
 };
 enum { N_REGULARIZERS = sizeof REGULARIZERS / sizeof REGULARIZERS[0] };
 
@@ -137,6 +139,10 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
         if (!(opt->view_weights[i] >= 0) || !isfinite(opt->view_weights[i]))
             return gv_fail("train: view %d has weight %g; weights must be finite and >= 0", i, opt->view_weights[i]);
     if (opt->iterations < 1) return gv_fail("train: %d iterations; need at least 1", opt->iterations);
+    if ((opt->regularize & GV_REGULARIZE_FSGS) && opt->densify_mode == GV_DENSIFY_MCMC)
+        return gv_fail("train: fsgs unpools at the densification steps of lean or reference density control, not mcmc");
+    if ((opt->regularize & GV_REGULARIZE_FSGS) && !(opt->fsgs_distance > 0))
+        return gv_fail("train: the fsgs distance is %g; it must be positive", opt->fsgs_distance);
     if (opt->sh_degree < 0 || opt->sh_degree > 3)
         return gv_fail("train: SH degree %d is not in 0..3", opt->sh_degree);
     const gv_splat_schedule *s = &opt->schedule;
@@ -292,6 +298,12 @@ static int density_control(gv_splat_trainer *t)
             return -1;
         t->densified.cloned += c.cloned, t->densified.split += c.split;
         t->densified.pruned += c.pruned;
+        if (t->opt.regularize & GV_REGULARIZE_FSGS) { /* after the reference's control */
+            int added;
+            if (gv_splat_fsgs_unpool(&t->params, &t->adam, t->opt.fsgs_distance * t->extent, &added))
+                return -1;
+            t->unpooled += added;
+        }
         done |= 1;
     }
     if (it % s->opacity_reset_interval == 0 ||
@@ -311,6 +323,7 @@ static int resize_buffers(gv_splat_trainer *t)
     int cap = t->params.capacity;
     if (gv_gaussians_reserve(&t->grad, cap) != 0) return -1;
     if (cap > t->stats.capacity && gv_splat_densify_stats_reserve(&t->stats, cap) != 0) return -1;
+    gv_splat_densify_stats_clear(&t->stats, t->params.n); /* zero after a densification */
     float *d = realloc(t->densify_grad, (size_t)cap * sizeof(float));
     if (!d) return gv_fail("train: out of memory for %d Gaussians", cap);
     t->densify_grad = d;

@@ -36,6 +36,9 @@ static int run(gv_splat_trainer *t, const char *label)
         gv_info("%s density control (threshold %g): %d cloned, %d split, %d pruned",
                 gv_splat_densify_mode_name(t->opt.densify_mode), t->opt.densify.grad_threshold,
                 t->densified.cloned, t->densified.split, t->densified.pruned);
+    if (t->opt.regularize & GV_REGULARIZE_FSGS)
+        gv_info("FSGS unpooling (proximity above %g x extent): %ld Gaussians added",
+                t->opt.fsgs_distance, t->unpooled);
     if (t->opt.regularize & GV_REGULARIZE_DROPGAUSSIAN)
         gv_info("DropGaussian: rate up to %.2f, %.1f Gaussians left out per render on average",
                 gv_splat_drop_rate(t->iteration, t->opt.iterations),

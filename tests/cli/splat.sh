@@ -62,6 +62,12 @@ for bad in dropout dropgaussian,dropgaussian "" dropgaussian, none,dropgaussian;
     check "--regularize '$bad' explained" grep -q "expected none or a comma-separated list" "$tmp/err.txt"
 done
 check "bad --regularize: no model" test ! -e "$tmp/x.ply"
+train "$tmp/x.ply" --regularize fsgs --densify mcmc > /dev/null 2> "$tmp/err.txt"
+check "fsgs with mcmc refused" grep -q "fsgs unpools at the densification steps" "$tmp/err.txt"
+"$gaussvid" splat train --scene "$scene" --interval 4 --iters 700 --seed 5 --threads 2 --out "$tmp/fsgs.ply" \
+    --regularize fsgs,dropgaussian --fsgs-distance 0.05 > "$tmp/fsgs.txt" 2>&1
+check "fsgs,dropgaussian trains" test -s "$tmp/fsgs.ply"
+check "fsgs reports its unpooling" grep -q "FSGS unpooling (proximity above 0.05 x extent): [1-9][0-9]* Gaussians added" "$tmp/fsgs.txt"
 
 # Eval: 12 frames, 3 of them training views; JSON means and per-frame list.
 "$gaussvid" splat eval --model "$tmp/a.ply" --scene "$scene" --interval 4 --json "$tmp/e.json" > "$tmp/eval.txt"
