@@ -102,7 +102,10 @@ static void test_far_point(void)
     make(&g, &adam, 5, xyz);
     float means[15], sh[5 * W];
     memcpy(means, g.means, sizeof means), memcpy(sh, g.sh, sizeof sh);
+    /* A score above 10 x the threshold is an isolated floater: with threshold 0.15 the far
+     * point (1.97) is left alone, and the cluster's scores (0.107-0.145) are below it. */
     int added = -1;
+    CHECK(gv_splat_fsgs_unpool(&g, &adam, 0.15, &added) == 0 && added == 0 && g.n == 5);
     CHECK(gv_splat_fsgs_unpool(&g, &adam, 0.5, &added) == 0);
     CHECK(added == 3 && g.n == 8 && adam.m.n == 8 && adam.v.n == 8);
     CHECK(memcmp(g.means, means, sizeof means) == 0); /* old rows unchanged */

@@ -191,12 +191,19 @@ int gv_splat_drop_draw(int n, double rate, uint64_t seed, float *scale);
 /* ---- fsgs.c -----------------------------------------------------------------------------
  * FSGS's proximity-guided unpooling (Zhu et al., ECCV 2024): a Gaussian whose proximity
  * score, sqrt(mean squared distance to its GV_FSGS_NEIGHBORS nearest), exceeds threshold
- * gets a new Gaussian at the midpoint to each of those neighbours: the source's scale,
+ * (and is at most 10 x threshold: farther, it is an isolated floater) gets a new Gaussian at the midpoint to each of those neighbours: the source's scale,
  * opacity and rotation, the mean of the two ends' SH. An edge between two such Gaussians
  * that are each other's neighbours is grown once (from the lower row). New rows follow the
  * model's (ordered by source row, then neighbour nearest first) with zero Adam moments. */
 #define GV_FSGS_NEIGHBORS 3
 int gv_splat_fsgs_unpool(gv_gaussians *g, gv_splat_adam *adam, double threshold, int *added);
+
+/* ---- corgs.c ----------------------------------------------------------------------------
+ * CoR-GS's co-pruning (Zhang et al., ECCV 2024): two fields trained together; a Gaussian of
+ * either with no Gaussian of the other within tau (world units) is removed, both fields
+ * judged before either is pruned (rows keep their order, Adam moments follow). */
+int gv_splat_corgs_coprune(gv_gaussians *a, gv_splat_adam *adam_a, gv_gaussians *b,
+                           gv_splat_adam *adam_b, double tau, int *pruned_a, int *pruned_b);
 
 /* ---- train.c ----------------------------------------------------------------------------
  * The loop of 3DGS train.py (section 14.1). Iteration numbers start at 1. */
@@ -227,8 +234,8 @@ const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode);
 
 /* Prior-free sparse-view regularisers (docs/SPLAT_TRAINING.md, "Sparse-view regularisers"),
  * a set of bits; none of them is the plain 3DGS of the reference. */
-enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0, GV_REGULARIZE_FSGS = 1 << 1 };
-#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian, fsgs"
+enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0, GV_REGULARIZE_FSGS = 1 << 1, GV_REGULARIZE_CORGS = 1 << 2 };
+#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian, fsgs, corgs"
 /* "none", or names separated by commas (each once) -> the set; -1 for anything else. */
 int gv_splat_regularize_parse(const char *list);
 /* The set as the parser reads it ("none", "dropgaussian", ...) into buf of size n. */
@@ -247,6 +254,8 @@ typedef struct {
     gv_splat_densify_mode densify_mode;
     int regularize;             /* GV_REGULARIZE_* bits; 0: plain 3DGS */
     double fsgs_distance;       /* FSGS: unpool above this proximity score x extent (0.1) */
+    double corgs_distance;      /* CoR-GS: prune without a counterpart within this x extent
+                                 * (0.05) */
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
@@ -279,6 +288,7 @@ typedef struct {
     float *drop_scale;          /* DropGaussian: this iteration's opacity scales (capacity) */
     long dropped;               /* DropGaussian: Gaussians left out, summed over iterations */
     long unpooled;              /* FSGS: Gaussians added by unpooling */
+    int last_control;           /* the last iteration's density control: 1 densified, 2 reset */
     int *all_rows;              /* 0, 1, 2, ...: Adam's list when every row has a gradient */
     int *order, order_pos;      /* this epoch's shuffled view order */
     gv_rng view_rng, bg_rng, split_rng;
@@ -302,6 +312,13 @@ int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt
                           int n_points, const float *xyz, const uint8_t *rgb);
 /* Runs the next iteration. */
 int gv_splat_trainer_step(gv_splat_trainer *t);
+/* After rows of t->params (and its Adam moments) were added or removed outside the step:
+ * the gradient and statistics buffers follow, zeroed (as after a densification). */
+int gv_splat_trainer_rows_changed(gv_splat_trainer *t);
+/* CoR-GS (corgs.c): one iteration of both trainers, then, if either densified,
+ * co-pruning at tau x a's extent; pruned[0] and pruned[1] count the removed Gaussians of
+ * a and b. */
+int gv_splat_corgs_step(gv_splat_trainer *a, gv_splat_trainer *b, double tau, long *pruned);
 void gv_splat_trainer_free(gv_splat_trainer *t);
 /* Trains on the frames 0, n, 2n, ... (n = interval) of a scene and returns the model in
  * out (to be freed with gv_gaussians_free). */

@@ -55,6 +55,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     gv_splat_mcmc_defaults(&opt->mcmc);
     opt->gaussians_per_pixel = 0.02;
     opt->fsgs_distance = 0.1;
+    opt->corgs_distance = 0.05;
 }
 
 double gv_splat_densify_threshold(const gv_splat_train_options *opt)
@@ -81,6 +82,7 @@ const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode)
 static const struct { const char *name; int bit; } REGULARIZERS[] = {
     {"dropgaussian", GV_REGULARIZE_DROPGAUSSIAN},
     {"fsgs", GV_REGULARIZE_FSGS},
+    {"corgs", GV_REGULARIZE_CORGS},
 };
 enum { N_REGULARIZERS = sizeof REGULARIZERS / sizeof REGULARIZERS[0] };
 
@@ -141,6 +143,10 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
     if (opt->iterations < 1) return gv_fail("train: %d iterations; need at least 1", opt->iterations);
     if ((opt->regularize & GV_REGULARIZE_FSGS) && opt->densify_mode == GV_DENSIFY_MCMC)
         return gv_fail("train: fsgs unpools at the densification steps of lean or reference density control, not mcmc");
+    if ((opt->regularize & GV_REGULARIZE_CORGS) && opt->densify_mode == GV_DENSIFY_MCMC)
+        return gv_fail("train: corgs co-prunes at the densification steps of lean or reference density control, not mcmc");
+    if ((opt->regularize & GV_REGULARIZE_CORGS) && !(opt->corgs_distance > 0))
+        return gv_fail("train: the corgs distance is %g; it must be positive", opt->corgs_distance);
     if ((opt->regularize & GV_REGULARIZE_FSGS) && !(opt->fsgs_distance > 0))
         return gv_fail("train: the fsgs distance is %g; it must be positive", opt->fsgs_distance);
     if (opt->sh_degree < 0 || opt->sh_degree > 3)
@@ -339,6 +345,11 @@ static int resize_buffers(gv_splat_trainer *t)
     return 0;
 }
 
+int gv_splat_trainer_rows_changed(gv_splat_trainer *t)
+{
+    return resize_buffers(t);
+}
+
 /* Steps 5 and 6 of the reference: density control, then Adam (skipped in an iteration
  * that densified). */
 static int reference_update(gv_splat_trainer *t, double seconds[2])
@@ -346,6 +357,7 @@ static int reference_update(gv_splat_trainer *t, double seconds[2])
     double t0 = gv_now();
     int control = density_control(t);
     if (control < 0) return -1;
+    t->last_control = control;
     double t1 = gv_now();
     if (control & 1) {
         if (resize_buffers(t) != 0) return -1;

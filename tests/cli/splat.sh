@@ -68,6 +68,11 @@ check "fsgs with mcmc refused" grep -q "fsgs unpools at the densification steps"
     --regularize fsgs,dropgaussian --fsgs-distance 0.05 > "$tmp/fsgs.txt" 2>&1
 check "fsgs,dropgaussian trains" test -s "$tmp/fsgs.ply"
 check "fsgs reports its unpooling" grep -q "FSGS unpooling (proximity above 0.05 x extent): [1-9][0-9]* Gaussians added" "$tmp/fsgs.txt"
+"$gaussvid" splat train --scene "$scene" --interval 4 --iters 700 --seed 5 --threads 2 --out "$tmp/corgs.ply" \
+    --regularize corgs --corgs-distance 0.02 > "$tmp/corgs.txt" 2>&1
+check "corgs trains" test -s "$tmp/corgs.ply"
+check "corgs reports its co-pruning" grep -q "CoR-GS co-pruning (within 0.02 x extent): [0-9]* and [0-9]* Gaussians pruned" "$tmp/corgs.txt"
+check "corgs is another model" test -n "$(cmp "$tmp/lean.ply" "$tmp/corgs.ply")"
 
 # Eval: 12 frames, 3 of them training views; JSON means and per-frame list.
 "$gaussvid" splat eval --model "$tmp/a.ply" --scene "$scene" --interval 4 --json "$tmp/e.json" > "$tmp/eval.txt"
