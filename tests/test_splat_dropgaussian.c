@@ -1,5 +1,6 @@
 /* DropGaussian (src/splat/dropgaussian.c) and the opacity-scaled render it trains with
  * (src/splat/render.c):
+ * - the --regularize list's parser and names;
  * - the rate schedule's exact values;
  * - the draw: only 0 and 1 / (1 - rate), the dropped share, the same for 1 and 2 threads;
  * - the expectation: on a hand-built scene of three overlapping low-opacity Gaussians, the
@@ -28,6 +29,25 @@ static void test_rate(void)
     CHECK_NEAR(gv_splat_drop_rate(1, 8000), 2.5e-5, 1e-19);
     for (int it = 1; it < 8000; it++) /* linear: equal steps */
         CHECK_NEAR(gv_splat_drop_rate(it + 1, 8000) - gv_splat_drop_rate(it, 8000), 2.5e-5, 1e-15);
+}
+
+/* The --regularize list: names, order-free, each once; the name round-trips. */
+static void test_parse(void)
+{
+    char buf[64];
+    CHECK(gv_splat_regularize_parse("none") == 0);
+    CHECK(gv_splat_regularize_parse("dropgaussian") == GV_REGULARIZE_DROPGAUSSIAN);
+    int all = GV_REGULARIZE_DROPGAUSSIAN | GV_REGULARIZE_FSGS | GV_REGULARIZE_CORGS;
+    CHECK(gv_splat_regularize_parse("corgs,fsgs,dropgaussian") == all);
+    gv_splat_regularize_name(all, buf, sizeof buf);
+    CHECK(strcmp(buf, "dropgaussian,fsgs,corgs") == 0);
+    CHECK(gv_splat_regularize_parse(buf) == all);
+    gv_splat_regularize_name(0, buf, sizeof buf);
+    CHECK(strcmp(buf, "none") == 0);
+    gv_splat_regularize_name(GV_REGULARIZE_FSGS, buf, sizeof buf);
+    CHECK(strcmp(buf, "fsgs") == 0);
+    const char *bad[] = {"", ",", "fsgs,", ",fsgs", "fsgs,fsgs", "none,fsgs", "NONE", "drop", "fsgsx"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) CHECK(gv_splat_regularize_parse(bad[i]) == -1);
 }
 
 static void test_draw(void)
@@ -277,6 +297,7 @@ static void test_gradients(void)
 
 int main(void)
 {
+    test_parse();
     test_rate();
     test_draw();
     omp_set_num_threads(1); /* small renders: a thread team costs more than it saves */

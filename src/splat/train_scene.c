@@ -46,6 +46,9 @@ static int run(gv_splat_trainer *t, gv_splat_trainer *b, const char *label)
         gv_info("%s density control (threshold %g): %d cloned, %d split, %d pruned",
                 gv_splat_densify_mode_name(t->opt.densify_mode), t->opt.densify.grad_threshold,
                 t->densified.cloned, t->densified.split, t->densified.pruned);
+    char names[64];
+    gv_splat_regularize_name(t->opt.regularize, names, sizeof names);
+    gv_info("sparse-view regularisers: %s", names);
     if (t->opt.regularize & GV_REGULARIZE_FSGS)
         gv_info("FSGS unpooling (proximity above %g x extent): %ld Gaussians added",
                 t->opt.fsgs_distance, t->unpooled);
