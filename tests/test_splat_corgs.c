@@ -1,11 +1,13 @@
 /* CoR-GS's co-pruning (src/splat/corgs.c) on a hand-built pair of fields: which rows each
  * field loses, the order of the rest, the Adam moments following their rows, an empty
  * field; and the pseudo-view cameras between two training views (src/splat/camera_path.c:
- * rotation by slerp, centre and intrinsics linearly) against hand-derived poses. */
-#include "check.h"
-#include "gaussvid/core.h"
+ * rotation by slerp, centre and intrinsics linearly) against hand-derived poses; the
+ * pseudo-view term's gradient for both fields against central finite differences of its
+ * loss. */
+#include "gaussvid/render.h"
 #include "gaussvid/scene.h"
 #include "gaussvid/splat_train.h"
+#include "splat_fixtures.h"
 
 static void make_field(gv_gaussians *g, gv_splat_adam *adam, int n, const float (*xyz)[3])
 {
@@ -113,8 +115,118 @@ static void test_pseudo_cameras(void)
     CHECK_NEAR(mid.fx, 150, 1e-12);
 }
 
+/* The pair's loss from the double reference renderer (its signature of discrete decisions
+ * lets the differences step around the 1/255 cut), on the float32 loss of the renders. */
+enum { PN = 24, PW = 40, PH = 24 };
+typedef struct {
+    double means[2][3 * PN], sh[2][3 * PN], opacities[2][PN], scales[2][3 * PN], rotations[2][4 * PN];
+    double image[PW * PH * 3];
+    float render[2][PW * PH * 3];
+    gv_splat_loss_work work;
+    const gv_splat_view *view;
+    double lambda;
+} pair_fd;
+
+static double pair_loss(void *ctx, uint64_t *signature)
+{
+    pair_fd *p = ctx;
+    const double bg[3] = {0, 0, 0};
+    *signature = 0;
+    for (int k = 0; k < 2; k++) {
+        uint64_t sig;
+        gv_splat_reference_render(PN, 0, 0, p->means[k], p->sh[k], p->opacities[k], p->scales[k],
+                                  p->rotations[k], p->view, bg, p->image, &sig);
+        *signature = *signature * 1000003u + sig;
+        for (int i = 0; i < PW * PH * 3; i++) p->render[k][i] = (float)p->image[i];
+    }
+    gv_splat_loss_value v;
+    CHECK(gv_splat_loss(&p->work, p->render[0], p->render[1], PW, PH, p->lambda, NULL, &v) == 0);
+    return 0.7 * v.loss;
+}
+
+static void to_doubles(const float *x, int n, double *out)
+{
+    for (int i = 0; i < n; i++) out[i] = x[i];
+}
+
+/* Field 1 is field 0 with every colour 0.3 brighter, so the L1 term has no kink near the
+ * renders (they differ by at least 0.3/255 wherever either is drawn) and central
+ * differences are exact up to rounding. The SSIM term's gradient is the training loss's
+ * (tests/test_splat_loss.c checks it against a double SSIM; float32 moments are too coarse
+ * for differences here); what this term adds is its use with each render as the other's
+ * target, which needs the loss to be symmetric: test_loss_symmetry. */
+static void test_pseudo_gradient(double lambda, double h, double tol)
+{
+    gv_splat_view view;
+    fix_view(&view, PW, PH, 71);
+    gv_gaussians g[2], grad[2];
+    static pair_fd p;
+    p.view = &view, p.lambda = lambda;
+    for (int k = 0; k < 2; k++) {
+        fix_gaussians(&g[k], PN, 0, &view, 72 + (uint64_t)(lambda > 0 ? k : 0));
+        for (int i = 0; i < 3 * PN && lambda == 0 && k == 1; i++) g[k].sh[i] += (float)(0.3 / FIX_C0);
+        CHECK(gv_gaussians_alloc(&grad[k], PN, 0) == 0);
+        to_doubles(g[k].means, 3 * PN, p.means[k]), to_doubles(g[k].sh, 3 * PN, p.sh[k]);
+        to_doubles(g[k].opacities, PN, p.opacities[k]), to_doubles(g[k].scales, 3 * PN, p.scales[k]);
+        to_doubles(g[k].rotations, 4 * PN, p.rotations[k]);
+    }
+    gv_splat_corgs c;
+    memset(&c, 0, sizeof c);
+    double loss;
+    CHECK(gv_splat_corgs_pseudo_grad(&c, &g[0], &g[1], &view, 0, lambda, 0.7, &grad[0], &grad[1], &loss) == 0);
+    uint64_t s0;
+    double reference = pair_loss(&p, &s0);
+    printf("  lambda %g: pseudo-view loss %.6f, from the reference renders %.6f\n", lambda, loss, reference);
+    CHECK_NEAR(loss, reference, 1e-5);
+    static fix_compare cmp[3] = {{"pseudo: opacity logits", 0, 0, {0}, {0}},
+                                 {"pseudo: SH DC", 0, 0, {0}, {0}},
+                                 {"pseudo: means", 0, 0, {0}, {0}}};
+    for (int k = 0; k < 2; k++)
+        for (int m = 0; m < c.renderer[k].tiles.n_visible; m++) {
+            int i = c.renderer[k].tiles.visible[m];
+            double num;
+            struct { double *param; const float *analytic; int count; int kind; } kinds[3] = {
+                {p.opacities[k] + i, grad[k].opacities + i, 1, 0},
+                {p.sh[k] + 3 * i, grad[k].sh + 3 * i, 3, 1},
+                {p.means[k] + 3 * i, grad[k].means + 3 * i, 3, 2}};
+            for (int q = 0; q < 3; q++)
+                for (int j = 0; j < kinds[q].count; j++) {
+                    if (fix_derivative(pair_loss, &p, s0, kinds[q].param + j, h, &num))
+                        cmp[q].skipped++;
+                    else
+                        fix_add(&cmp[q], kinds[q].analytic[j], num);
+                }
+        }
+    for (int q = 0; q < 3; q++) fix_report(&cmp[q], tol), cmp[q].count = cmp[q].skipped = 0;
+    for (int k = 0; k < 2; k++) gv_gaussians_free(&g[k]), gv_gaussians_free(&grad[k]);
+    gv_splat_corgs_free(&c);
+    gv_splat_loss_free(&p.work);
+}
+
+/* L(a, b) = L(b, a) for the training loss's form at lambda 0.2. */
+static void test_loss_symmetry(void)
+{
+    enum { W = 37, H = 23 };
+    static float a[W * H * 3], b[W * H * 3];
+    for (int i = 0; i < W * H * 3; i++) {
+        a[i] = (float)gv_uniform_at(81, (uint64_t)i);
+        b[i] = (float)(0.5 * a[i] + 0.5 * gv_uniform_at(82, (uint64_t)i));
+    }
+    gv_splat_loss_work w;
+    memset(&w, 0, sizeof w);
+    gv_splat_loss_value ab, ba;
+    CHECK(gv_splat_loss(&w, a, b, W, H, 0.2, NULL, &ab) == 0);
+    CHECK(gv_splat_loss(&w, b, a, W, H, 0.2, NULL, &ba) == 0);
+    printf("  L(a, b) %.9f, L(b, a) %.9f\n", ab.loss, ba.loss);
+    CHECK(ab.l1 == ba.l1);
+    CHECK_NEAR(ab.ssim, ba.ssim, 1e-6);
+    gv_splat_loss_free(&w);
+}
+
 int main(void)
 {
+    test_pseudo_gradient(0.0, 1e-4, 1e-2);
+    test_loss_symmetry();
     test_coprune();
     test_pseudo_cameras();
     return check_summary();

@@ -256,6 +256,7 @@ typedef struct {
     double fsgs_distance;       /* FSGS: unpool above this proximity score x extent (0.1) */
     double corgs_distance;      /* CoR-GS: prune without a counterpart within this x extent
                                  * (0.05) */
+    double corgs_pseudo_weight; /* CoR-GS: weight of the pseudo-view term (1; 0: off) */
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
@@ -289,6 +290,9 @@ typedef struct {
     long dropped;               /* DropGaussian: Gaussians left out, summed over iterations */
     long unpooled;              /* FSGS: Gaussians added by unpooling */
     int last_control;           /* the last iteration's density control: 1 densified, 2 reset */
+    const int *update_rows;     /* NULL: Adam's rows are the render's visible ones; else these
+                                 * (ascending, borrowed, for one update) */
+    int n_update_rows;
     int *all_rows;              /* 0, 1, 2, ...: Adam's list when every row has a gradient */
     int *order, order_pos;      /* this epoch's shuffled view order */
     gv_rng view_rng, bg_rng, split_rng;
@@ -310,15 +314,46 @@ double gv_splat_densify_threshold(const gv_splat_train_options *opt);
 int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt, int n_views,
                           const gv_camera *cameras, const gv_image *images, double extent,
                           int n_points, const float *xyz, const uint8_t *rgb);
-/* Runs the next iteration. */
+/* Runs the next iteration: gv_splat_trainer_forward_backward, then gv_splat_trainer_update.
+ * Between the two a caller may add gradients of its own to t->grad (CoR-GS's pseudo-view
+ * term): on rows outside the render's visible list it must then set update_rows to the
+ * ascending list of every row with a gradient. */
 int gv_splat_trainer_step(gv_splat_trainer *t);
+/* Steps 1-4: the next iteration's view, render, loss and backward into t->grad. */
+int gv_splat_trainer_forward_backward(gv_splat_trainer *t);
+/* Steps 5-6: density control and Adam (which consumes t->grad). */
+int gv_splat_trainer_update(gv_splat_trainer *t);
 /* After rows of t->params (and its Adam moments) were added or removed outside the step:
  * the gradient and statistics buffers follow, zeroed (as after a densification). */
 int gv_splat_trainer_rows_changed(gv_splat_trainer *t);
-/* CoR-GS (corgs.c): one iteration of both trainers, then, if either densified,
- * co-pruning at tau x a's extent; pruned[0] and pruned[1] count the removed Gaussians of
- * a and b. */
-int gv_splat_corgs_step(gv_splat_trainer *a, gv_splat_trainer *b, double tau, long *pruned);
+/* CoR-GS's pseudo-view co-regularisation (corgs.c): the two fields rendered at a camera
+ * between two training views, each pulled towards the other's render by
+ * weight x ((1 - lambda) L1 + lambda (1 - SSIM)) of the pair, the training loss's form. */
+typedef struct {
+    gv_splat_renderer renderer[2];
+    gv_splat_loss_work loss_work;
+    gv_gaussians grad[2];       /* the pseudo-view's gradients (valid on its visible rows) */
+    float *image[2], *d_image[2];
+    long pixels;                /* what image and d_image hold */
+    int *rows[2], rows_capacity[2]; /* each field's rows with a gradient this iteration */
+    gv_rng rng;                 /* the pseudo cameras */
+    double weight;              /* 1: as heavy as the training view */
+    int from;                   /* only after this iteration (the densification start) */
+    long pseudo_views;
+} gv_splat_corgs;
+
+/* The pair's loss at view and its gradient: grad[k] (SH degree of g[k], capacity >= its
+ * rows) gets dL/dparams on the rows visible in c->renderer[k] (the others untouched). */
+int gv_splat_corgs_pseudo_grad(gv_splat_corgs *c, const gv_gaussians *g0, const gv_gaussians *g1,
+                               const gv_splat_view *view, int active_degree, double lambda,
+                               double weight, gv_gaussians *grad0, gv_gaussians *grad1,
+                               double *loss);
+void gv_splat_corgs_free(gv_splat_corgs *c);
+/* CoR-GS: one iteration of both trainers with the pseudo-view term after c->from, then, if
+ * either densified, co-pruning at tau x a's extent; pruned[0] and pruned[1] count the
+ * removed Gaussians of a and b. */
+int gv_splat_corgs_step(gv_splat_corgs *c, gv_splat_trainer *a, gv_splat_trainer *b, double tau,
+                        long *pruned);
 void gv_splat_trainer_free(gv_splat_trainer *t);
 /* Trains on the frames 0, n, 2n, ... (n = interval) of a scene and returns the model in
  * out (to be freed with gv_gaussians_free). */

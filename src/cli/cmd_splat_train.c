@@ -29,7 +29,7 @@ int cmd_splat_train(int argc, char **argv)
     const char *scene_dir = NULL, *out = NULL;
     int interval = 1, iterations = 30000, downscale = 1, sh_degree = 3, seed = 0;
     double grad_threshold = 0, per_pixel = 0, regularizer = 0.01, fsgs_distance = 0.1,
-           corgs_distance = 0.05;
+           corgs_distance = 0.05, corgs_pseudo = 1.0;
     const char *densify = "lean", *regularize = "none";
     int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0;
     const gv_flag flags[] = {
@@ -47,6 +47,7 @@ int cmd_splat_train(int argc, char **argv)
         {"densify", GV_FLAG_STRING, &densify, "MODE", "lean (default), reference or mcmc", 0},
         {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "sparse-view regularisers: none (default), dropgaussian, fsgs, corgs", 0},
         {"corgs-distance", GV_FLAG_DOUBLE, &corgs_distance, "X", "corgs: co-prune Gaussians without a counterpart within X x the scene extent (default 0.05)", 0},
+        {"corgs-pseudo", GV_FLAG_DOUBLE, &corgs_pseudo, "W", "corgs: weight of the pseudo-view term (default 1; 0: co-pruning alone)", 0},
         {"fsgs-distance", GV_FLAG_DOUBLE, &fsgs_distance, "X", "fsgs: unpool where the proximity score exceeds X x the scene extent (default 0.1)", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
@@ -78,7 +79,9 @@ int cmd_splat_train(int argc, char **argv)
         "  corgs      CoR-GS's co-pruning: a second field trains alongside (twice the\n"
         "             time); at each densification step the Gaussians of either with no\n"
         "             counterpart in the other within --corgs-distance x extent are\n"
-        "             pruned (lean, reference); the first field is the model\n"
+        "             pruned (lean, reference); the first field is the model; from\n"
+        "             iteration 500 the two fields' renders at a camera between two\n"
+        "             training views are pulled together (--corgs-pseudo)\n"
         "--iters N stops the schedule early (nothing is rescaled; the drop share\n"
         "follows --iters).\n"
         "The last line gives the Gaussian count and the Gaussians per training pixel.\n"
@@ -107,6 +110,10 @@ int cmd_splat_train(int argc, char **argv)
         fprintf(stderr, "gaussvid splat train: --densify %s: expected " GV_DENSIFY_MODE_NAMES "\n", densify);
         return 2;
     }
+    if (!(corgs_pseudo >= 0)) {
+        fprintf(stderr, "gaussvid splat train: --corgs-pseudo must be 0 or more\n");
+        return 2;
+    }
     if (!(fsgs_distance > 0) || !(corgs_distance > 0)) {
         fprintf(stderr, "gaussvid splat train: --fsgs-distance and --corgs-distance must be positive\n");
         return 2;
@@ -127,6 +134,7 @@ int cmd_splat_train(int argc, char **argv)
     opt.densify.grad_threshold = grad_threshold; /* 0: the mode's */
     opt.fsgs_distance = fsgs_distance;
     opt.corgs_distance = corgs_distance;
+    opt.corgs_pseudo_weight = corgs_pseudo;
     opt.progress_label = "train";
     gv_scene_options so = {.downscale = downscale, .white_background = white_bg};
     gv_scene scene;

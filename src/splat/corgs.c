@@ -5,10 +5,13 @@
  * a distance tau is likely one that fits the training views and nothing else, and is
  * pruned. Both fields are judged against each other before either is pruned. The driving
  * loop (two trainers stepped together, co-pruning after each densification step) is
- * gv_splat_corgs_step. CoR-GS's other term, the two fields' renders at pseudo-views pulled
- * together, is not implemented (docs/SPLAT_TRAINING.md). */
+ * gv_splat_corgs_step. CoR-GS's other term: at a camera between two training views (where
+ * nothing supervises them) the two fields' renders are pulled together, each towards the
+ * other, with the training loss's form; its gradient is added to each field's before the
+ * Adam step, on the union of the rows the two renders saw. */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "gaussvid/core.h"
 #include "gaussvid/splat_train.h"
@@ -60,9 +63,142 @@ int gv_splat_corgs_coprune(gv_gaussians *a, gv_splat_adam *adam_a, gv_gaussians 
     return rc;
 }
 
-int gv_splat_corgs_step(gv_splat_trainer *a, gv_splat_trainer *b, double tau, long *pruned)
+/* ---- the pseudo-view term -------------------------------------------------------------- */
+
+static int ensure_images(gv_splat_corgs *c, long pixels)
 {
-    if (gv_splat_trainer_step(a) != 0 || gv_splat_trainer_step(b) != 0) return -1;
+    if (pixels <= c->pixels) return 0;
+    for (int k = 0; k < 2; k++) {
+        float *im = realloc(c->image[k], (size_t)pixels * 3 * sizeof(float));
+        if (im) c->image[k] = im;
+        float *d = realloc(c->d_image[k], (size_t)pixels * 3 * sizeof(float));
+        if (d) c->d_image[k] = d;
+        if (!im || !d) return gv_fail("corgs: out of memory for %ld pixels", pixels);
+    }
+    c->pixels = pixels;
+    return 0;
+}
+
+int gv_splat_corgs_pseudo_grad(gv_splat_corgs *c, const gv_gaussians *g0, const gv_gaussians *g1,
+                               const gv_splat_view *view, int active_degree, double lambda,
+                               double weight, gv_gaussians *grad0, gv_gaussians *grad1,
+                               double *loss)
+{
+    const gv_gaussians *g[2] = {g0, g1};
+    gv_gaussians *grad[2] = {grad0, grad1};
+    const float black[3] = {0, 0, 0};
+    long pixels = (long)view->width * view->height;
+    if (ensure_images(c, pixels) != 0) return -1;
+    for (int k = 0; k < 2; k++)
+        if (gv_splat_render_forward(&c->renderer[k], g[k], view, active_degree, black, c->image[k]))
+            return gv_fail_context("corgs: pseudo view");
+    /* The pair's loss is symmetric in its two images, so its gradient with respect to each
+     * is the training loss's gradient with the other as the target. */
+    gv_splat_loss_value value;
+    for (int k = 0; k < 2; k++)
+        if (gv_splat_loss(&c->loss_work, c->image[k], c->image[1 - k], view->width, view->height,
+                          lambda, c->d_image[k], &value) != 0)
+            return gv_fail_context("corgs: pseudo view");
+    *loss = weight * value.loss;
+    for (int k = 0; k < 2; k++) {
+        for (long i = 0; i < pixels * 3; i++) c->d_image[k][i] *= (float)weight;
+        if (gv_splat_render_backward(&c->renderer[k], g[k], c->d_image[k], grad[k], NULL))
+            return gv_fail_context("corgs: pseudo view");
+    }
+    return 0;
+}
+
+void gv_splat_corgs_free(gv_splat_corgs *c)
+{
+    for (int k = 0; k < 2; k++) {
+        gv_splat_renderer_free(&c->renderer[k]), gv_gaussians_free(&c->grad[k]);
+        free(c->image[k]), free(c->d_image[k]), free(c->rows[k]);
+    }
+    gv_splat_loss_free(&c->loss_work);
+    memset(c, 0, sizeof *c);
+}
+
+/* rows = the union of the ascending lists x and y. */
+static int merge(const int *x, int nx, const int *y, int ny, int *rows)
+{
+    int i = 0, j = 0, n = 0;
+    while (i < nx || j < ny) {
+        int v = j >= ny || (i < nx && x[i] <= y[j]) ? x[i] : y[j];
+        if (i < nx && x[i] == v) i++;
+        if (j < ny && y[j] == v) j++;
+        rows[n++] = v;
+    }
+    return n;
+}
+
+/* Adds the pseudo-view gradient of field k to its trainer's and gives Adam the union of the
+ * two renders' rows. */
+static int add_gradient(gv_splat_corgs *c, int k, gv_splat_trainer *t)
+{
+    const gv_splat_tiles *own = &t->renderer.tiles, *pseudo = &c->renderer[k].tiles;
+    int need = own->n_visible + pseudo->n_visible;
+    if (need > c->rows_capacity[k]) {
+        int *r = realloc(c->rows[k], (size_t)need * sizeof(int));
+        if (!r) return gv_fail("corgs: out of memory for %d rows", need);
+        c->rows[k] = r, c->rows_capacity[k] = need;
+    }
+    const gv_gaussians *src = &c->grad[k];
+    gv_gaussians *dst = &t->grad;
+    int w = 3 * gv_sh_coefficient_count(dst->sh_degree);
+#pragma omp parallel for schedule(static)
+    for (int m = 0; m < pseudo->n_visible; m++) {
+        size_t i = (size_t)pseudo->visible[m];
+        for (int a = 0; a < 3; a++) dst->means[3 * i + a] += src->means[3 * i + a];
+        for (int a = 0; a < 3; a++) dst->scales[3 * i + a] += src->scales[3 * i + a];
+        for (int a = 0; a < 4; a++) dst->rotations[4 * i + a] += src->rotations[4 * i + a];
+        for (int a = 0; a < w; a++) dst->sh[w * i + a] += src->sh[w * i + a];
+        dst->opacities[i] += src->opacities[i];
+    }
+    t->n_update_rows = merge(own->visible, own->n_visible, pseudo->visible, pseudo->n_visible,
+                             c->rows[k]);
+    t->update_rows = c->rows[k];
+    return 0;
+}
+
+/* A camera between two consecutive training views of a, at a uniform position. */
+static int pseudo_view(gv_splat_corgs *c, const gv_splat_trainer *a, gv_splat_view *view)
+{
+    int k = (int)(gv_rng_uniform(&c->rng) * (a->n_views - 1));
+    double s = gv_rng_uniform(&c->rng);
+    gv_camera cam;
+    gv_camera_interpolate(&a->cameras[k], &a->cameras[k + 1], s, &cam);
+    return gv_splat_view_from_camera(view, &cam);
+}
+
+static int pseudo_term(gv_splat_corgs *c, gv_splat_trainer *a, gv_splat_trainer *b)
+{
+    gv_splat_trainer *t[2] = {a, b};
+    for (int k = 0; k < 2; k++) {
+        gv_gaussians *g = &c->grad[k];
+        if (g->capacity == 0 && gv_gaussians_alloc(g, t[k]->params.n, t[k]->params.sh_degree) != 0)
+            return -1;
+        if (gv_gaussians_reserve(g, t[k]->params.capacity) != 0) return -1;
+        g->n = t[k]->params.n;
+    }
+    gv_splat_view view;
+    double loss;
+    if (pseudo_view(c, a, &view) != 0 ||
+        gv_splat_corgs_pseudo_grad(c, &a->params, &b->params, &view, a->active_degree,
+                                   a->opt.lambda_dssim, c->weight, &c->grad[0], &c->grad[1], &loss) != 0 ||
+        add_gradient(c, 0, a) != 0 || add_gradient(c, 1, b) != 0)
+        return -1;
+    c->pseudo_views++;
+    return 0;
+}
+
+int gv_splat_corgs_step(gv_splat_corgs *c, gv_splat_trainer *a, gv_splat_trainer *b, double tau,
+                        long *pruned)
+{
+    if (gv_splat_trainer_forward_backward(a) != 0 || gv_splat_trainer_forward_backward(b) != 0)
+        return -1;
+    if (c->weight > 0 && a->iteration > c->from && a->n_views > 1 && pseudo_term(c, a, b) != 0)
+        return gv_fail_context("train: iteration %d (pseudo view)", a->iteration);
+    if (gv_splat_trainer_update(a) != 0 || gv_splat_trainer_update(b) != 0) return -1;
     if (!(a->last_control & 1) && !(b->last_control & 1)) return 0; /* not a densification */
     int pa, pb;
     if (gv_splat_corgs_coprune(&a->params, &a->adam, &b->params, &b->adam, tau * a->extent, &pa,

@@ -56,6 +56,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     opt->gaussians_per_pixel = 0.02;
     opt->fsgs_distance = 0.1;
     opt->corgs_distance = 0.05;
+    opt->corgs_pseudo_weight = 1.0;
 }
 
 double gv_splat_densify_threshold(const gv_splat_train_options *opt)
@@ -145,6 +146,8 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
         return gv_fail("train: fsgs unpools at the densification steps of lean or reference density control, not mcmc");
     if ((opt->regularize & GV_REGULARIZE_CORGS) && opt->densify_mode == GV_DENSIFY_MCMC)
         return gv_fail("train: corgs co-prunes at the densification steps of lean or reference density control, not mcmc");
+    if ((opt->regularize & GV_REGULARIZE_CORGS) && !(opt->corgs_pseudo_weight >= 0 && isfinite(opt->corgs_pseudo_weight)))
+        return gv_fail("train: the corgs pseudo-view weight is %g; it must be finite and >= 0", opt->corgs_pseudo_weight);
     if ((opt->regularize & GV_REGULARIZE_CORGS) && !(opt->corgs_distance > 0))
         return gv_fail("train: the corgs distance is %g; it must be positive", opt->corgs_distance);
     if ((opt->regularize & GV_REGULARIZE_FSGS) && !(opt->fsgs_distance > 0))
@@ -367,7 +370,9 @@ static int reference_update(gv_splat_trainer *t, double seconds[2])
         int n_coeffs = gv_sh_coefficient_count(t->active_degree);
         /* The last iteration does not step (train.py): its gradient is only dropped. */
         if (t->iteration >= t->opt.iterations) groups = 0;
-        gv_splat_adam_step(&t->adam, &t->params, &t->grad, r->tiles.visible, r->tiles.n_visible,
+        const int *rows = t->update_rows ? t->update_rows : r->tiles.visible;
+        int n_rows = t->update_rows ? t->n_update_rows : r->tiles.n_visible;
+        gv_splat_adam_step(&t->adam, &t->params, &t->grad, rows, n_rows,
                            groups != 0 && !t->opt.sparse_adam, n_coeffs, groups);
     }
     seconds[0] = t1 - t0, seconds[1] = gv_now() - t1;
@@ -403,7 +408,7 @@ static int mcmc_update(gv_splat_trainer *t, double seconds[2])
     return 0;
 }
 
-int gv_splat_trainer_step(gv_splat_trainer *t)
+int gv_splat_trainer_forward_backward(gv_splat_trainer *t)
 {
     int it = ++t->iteration;
     gv_splat_adam_set_iteration(&t->adam, it);
@@ -443,12 +448,24 @@ int gv_splat_trainer_step(gv_splat_trainer *t)
     if (gv_splat_render_backward(&t->renderer, &t->params, t->d_render, &t->grad, t->densify_grad))
         return gv_fail_context("train: iteration %d", it);
     double t3 = gv_now();
+    t->seconds[GV_PHASE_RENDER] += t1 - t0, t->seconds[GV_PHASE_LOSS] += t2 - t1;
+    t->seconds[GV_PHASE_BACKWARD] += t3 - t2;
+    return 0;
+}
+
+int gv_splat_trainer_update(gv_splat_trainer *t)
+{
     double seconds[2]; /* densification, Adam */
     int rc = t->opt.densify_mode == GV_DENSIFY_MCMC ? mcmc_update(t, seconds)
                                                     : reference_update(t, seconds);
-    if (rc != 0) return gv_fail_context("train: iteration %d", it);
-    t->seconds[GV_PHASE_RENDER] += t1 - t0, t->seconds[GV_PHASE_LOSS] += t2 - t1;
-    t->seconds[GV_PHASE_BACKWARD] += t3 - t2, t->seconds[GV_PHASE_DENSIFY] += seconds[0];
+    t->update_rows = NULL, t->n_update_rows = 0; /* one iteration's */
+    if (rc != 0) return gv_fail_context("train: iteration %d", t->iteration);
+    t->seconds[GV_PHASE_DENSIFY] += seconds[0];
     t->seconds[GV_PHASE_ADAM] += seconds[1];
     return 0;
+}
+
+int gv_splat_trainer_step(gv_splat_trainer *t)
+{
+    return gv_splat_trainer_forward_backward(t) != 0 || gv_splat_trainer_update(t) != 0 ? -1 : 0;
 }
