@@ -6,6 +6,9 @@
 #
 #   scripts/splat_baselines.sh OUT [splat train flags...]    e.g. --densify reference
 #
+# Without flags the cells train at `splat train`'s defaults (--densify lean since issue 38;
+# the earlier tables were the reference's: pass --densify reference to repeat them).
+#
 # Needs build/gaussvid (or $GV); the rooms are made in $SCENES (default /work/scenes) if missing.
 # CELLS="courtyard:6 synth-2:26" runs only those cells; SEED sets every run's seed (default 0).
 # Prints one Markdown row per cell to OUT/table.md; CPU seconds (user + system) are the time to

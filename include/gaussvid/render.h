@@ -29,6 +29,7 @@ typedef struct {
     int n, sh_degree, active_degree;
     gv_splat_view view;
     float bg[3];
+    const float *opacity_scale; /* the last forward's (borrowed; NULL: none) */
     /* per Gaussian (capacity rows): projected and activated */
     float *means2d, *conics, *depths, *colors, *opacities;
     int *radii;             /* pixels, 0 = not visible in this view */
@@ -52,10 +53,18 @@ typedef struct {
 int gv_splat_render_forward(gv_splat_renderer *r, const gv_gaussians *g,
                             const gv_splat_view *view, int active_degree, const float bg[3],
                             float *image);
+/* The same with the opacity of Gaussian i multiplied by opacity_scale[i] (g->n values, kept
+ * by the caller until the backward; NULL is gv_splat_render_forward): 0 leaves the Gaussian
+ * out of the render (not visible: no gradient, no densification statistic), a scale above 1
+ * may take the opacity above 1 (alpha is still clamped at 0.99). DropGaussian's training
+ * renders (src/splat/dropgaussian.c). */
+int gv_splat_render_forward_scaled(gv_splat_renderer *r, const gv_gaussians *g,
+                                   const gv_splat_view *view, int active_degree,
+                                   const float bg[3], const float *opacity_scale, float *image);
 /* From d_image = dL/dimage (HWC) of the last forward of the same g, writes grad (same SH
  * degree, capacity >= g->n) for the visible Gaussians only: dL/d means, sh (zero above the
- * active degree), opacity logits, log-scales and raw quaternions; rows of Gaussians not
- * visible are left untouched. densify_grad (may be NULL) receives, for the visible
+ * active degree), opacity logits (through the last forward's opacity scale), log-scales and
+ * raw quaternions; rows of Gaussians not visible are left untouched. densify_grad (may be NULL) receives, for the visible
  * Gaussians, the 3DGS densification statistic of this view: the norm of dL/d means2d in
  * NDC units, |(dL/dx * W/2, dL/dy * H/2)| (reference doc section 14.1). */
 int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,

@@ -20,6 +20,12 @@
  * to its k nearest other points (fewer when the cloud has fewer; 0 when it has one point).
  * xyz is n * 3. Fails on k < 1 or when memory runs out. */
 int gv_knn_mean_sq_dist(int n, const float *xyz, int k, float *out);
+/* The k nearest of the n points xyz to each of n_query points query (NULL: to each of the
+ * points themselves, each excluding itself): index and sq_dist are n_query * k, nearest
+ * first; -1 and INFINITY where there are fewer than k. Exact; ties keep the tree's order
+ * (the same for any thread count). Fails on k outside 1..16 or when memory runs out. */
+int gv_knn_neighbors(int n, const float *xyz, int n_query, const float *query, int k,
+                     int *index, double *sq_dist);
 
 /* ---- init.c -----------------------------------------------------------------------------
  * 3DGS create_from_pcd (section 3.1): SH DC from the colour, (rgb - 0.5) / C0, higher SH 0;
@@ -169,6 +175,36 @@ void gv_splat_mcmc_noise(gv_gaussians *g, const gv_splat_mcmc_params *p, double 
 void gv_splat_mcmc_regularize(const gv_gaussians *g, const gv_splat_mcmc_params *p,
                               gv_gaussians *grad);
 
+/* ---- dropgaussian.c ---------------------------------------------------------------------
+ * DropGaussian (Park et al., CVPR 2025): each training render leaves out a random share of
+ * the Gaussians, the rate growing linearly to GV_DROP_RATE_MAX over the run, and multiplies
+ * the opacity of the kept ones by 1 / (1 - rate), so that the expected render is the full
+ * one; renders outside training are untouched. */
+#define GV_DROP_RATE_MAX 0.2
+/* GV_DROP_RATE_MAX x iteration / iterations (iteration 1 .. iterations). */
+double gv_splat_drop_rate(int iteration, int iterations);
+/* scale[i] for i < n: 0 (dropped, with probability rate) or 1 / (1 - rate), from the
+ * uniform number (seed, i): the same whatever the thread count. Returns the number dropped.
+ * rate must be in [0, 1). */
+int gv_splat_drop_draw(int n, double rate, uint64_t seed, float *scale);
+
+/* ---- fsgs.c -----------------------------------------------------------------------------
+ * FSGS's proximity-guided unpooling (Zhu et al., ECCV 2024): a Gaussian whose proximity
+ * score, sqrt(mean squared distance to its GV_FSGS_NEIGHBORS nearest), exceeds threshold
+ * (and is at most 10 x threshold: farther, it is an isolated floater) gets a new Gaussian at the midpoint to each of those neighbours: the source's scale,
+ * opacity and rotation, the mean of the two ends' SH. An edge between two such Gaussians
+ * that are each other's neighbours is grown once (from the lower row). New rows follow the
+ * model's (ordered by source row, then neighbour nearest first) with zero Adam moments. */
+#define GV_FSGS_NEIGHBORS 3
+int gv_splat_fsgs_unpool(gv_gaussians *g, gv_splat_adam *adam, double threshold, int *added);
+
+/* ---- corgs.c ----------------------------------------------------------------------------
+ * CoR-GS's co-pruning (Zhang et al., ECCV 2024): two fields trained together; a Gaussian of
+ * either with no Gaussian of the other within tau (world units) is removed, both fields
+ * judged before either is pruned (rows keep their order, Adam moments follow). */
+int gv_splat_corgs_coprune(gv_gaussians *a, gv_splat_adam *adam_a, gv_gaussians *b,
+                           gv_splat_adam *adam_b, double tau, int *pruned_a, int *pruned_b);
+
 /* ---- train.c ----------------------------------------------------------------------------
  * The loop of 3DGS train.py (section 14.1). Iteration numbers start at 1. */
 typedef enum { GV_BG_BLACK, GV_BG_WHITE, GV_BG_RANDOM } gv_splat_background;
@@ -182,10 +218,12 @@ typedef struct {
 } gv_splat_schedule;
 
 /* How the model grows (docs/SPLAT_TRAINING.md, "Density control"):
- * - reference (the default): the paper's clone / split / prune with opacity resets;
+ * - reference (the library's default): the paper's clone / split / prune with opacity
+ *   resets; `dataset build` and `adapt` keep it (set explicitly there), so the restorer's
+ *   training pairs carry the paper's artifacts;
  * - lean: the same with the gradient threshold doubled (0.0004): a third of the Gaussians
- *   at 256x144 and 1.9x faster, the same mean held-out PSNR but 0.001 lower SSIM over the
- *   15-cell baseline table and two cells 0.3-0.5 dB below, so not the default;
+ *   at 256x144 and 1.9x faster at the same mean held-out PSNR (0.001 lower SSIM over the
+ *   15-cell baseline table); the default of `splat train`;
  * - mcmc: a budget that follows the training pixels, relocation of dead Gaussians. */
 typedef enum { GV_DENSIFY_MCMC, GV_DENSIFY_REFERENCE, GV_DENSIFY_LEAN } gv_splat_densify_mode;
 #define GV_DENSIFY_DEFAULT GV_DENSIFY_REFERENCE
@@ -193,6 +231,15 @@ typedef enum { GV_DENSIFY_MCMC, GV_DENSIFY_REFERENCE, GV_DENSIFY_LEAN } gv_splat
 /* "lean", "reference" or "mcmc"; -1 for anything else. */
 int gv_splat_densify_mode_parse(const char *name);
 const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode);
+
+/* Prior-free sparse-view regularisers (docs/SPLAT_TRAINING.md, "Sparse-view regularisers"),
+ * a set of bits; none of them is the plain 3DGS of the reference. */
+enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0, GV_REGULARIZE_FSGS = 1 << 1, GV_REGULARIZE_CORGS = 1 << 2 };
+#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian, fsgs, corgs"
+/* "none", or names separated by commas (each once) -> the set; -1 for anything else. */
+int gv_splat_regularize_parse(const char *list);
+/* The set as the parser reads it ("none", "dropgaussian", ...) into buf of size n. */
+void gv_splat_regularize_name(int set, char *buf, size_t n);
 
 typedef struct {
     int iterations;             /* 30000 (the reference); --iters 8000 for the dataset */
@@ -205,6 +252,11 @@ typedef struct {
     gv_splat_adam_config adam;
     gv_splat_schedule schedule;
     gv_splat_densify_mode densify_mode;
+    int regularize;             /* GV_REGULARIZE_* bits; 0: plain 3DGS */
+    double fsgs_distance;       /* FSGS: unpool above this proximity score x extent (0.1) */
+    double corgs_distance;      /* CoR-GS: prune without a counterpart within this x extent
+                                 * (0.05) */
+    double corgs_pseudo_weight; /* CoR-GS: weight of the pseudo-view term (1; 0: off) */
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
@@ -234,6 +286,13 @@ typedef struct {
     gv_splat_renderer renderer;
     gv_splat_loss_work loss_work;
     float *render, *target, *d_render, *densify_grad;
+    float *drop_scale;          /* DropGaussian: this iteration's opacity scales (capacity) */
+    long dropped;               /* DropGaussian: Gaussians left out, summed over iterations */
+    long unpooled;              /* FSGS: Gaussians added by unpooling */
+    int last_control;           /* the last iteration's density control: 1 densified, 2 reset */
+    const int *update_rows;     /* NULL: Adam's rows are the render's visible ones; else these
+                                 * (ascending, borrowed, for one update) */
+    int n_update_rows;
     int *all_rows;              /* 0, 1, 2, ...: Adam's list when every row has a gradient */
     int *order, order_pos;      /* this epoch's shuffled view order */
     gv_rng view_rng, bg_rng, split_rng;
@@ -255,8 +314,46 @@ double gv_splat_densify_threshold(const gv_splat_train_options *opt);
 int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt, int n_views,
                           const gv_camera *cameras, const gv_image *images, double extent,
                           int n_points, const float *xyz, const uint8_t *rgb);
-/* Runs the next iteration. */
+/* Runs the next iteration: gv_splat_trainer_forward_backward, then gv_splat_trainer_update.
+ * Between the two a caller may add gradients of its own to t->grad (CoR-GS's pseudo-view
+ * term): on rows outside the render's visible list it must then set update_rows to the
+ * ascending list of every row with a gradient. */
 int gv_splat_trainer_step(gv_splat_trainer *t);
+/* Steps 1-4: the next iteration's view, render, loss and backward into t->grad. */
+int gv_splat_trainer_forward_backward(gv_splat_trainer *t);
+/* Steps 5-6: density control and Adam (which consumes t->grad). */
+int gv_splat_trainer_update(gv_splat_trainer *t);
+/* After rows of t->params (and its Adam moments) were added or removed outside the step:
+ * the gradient and statistics buffers follow, zeroed (as after a densification). */
+int gv_splat_trainer_rows_changed(gv_splat_trainer *t);
+/* CoR-GS's pseudo-view co-regularisation (corgs.c): the two fields rendered at a camera
+ * between two training views, each pulled towards the other's render by
+ * weight x ((1 - lambda) L1 + lambda (1 - SSIM)) of the pair, the training loss's form. */
+typedef struct {
+    gv_splat_renderer renderer[2];
+    gv_splat_loss_work loss_work;
+    gv_gaussians grad[2];       /* the pseudo-view's gradients (valid on its visible rows) */
+    float *image[2], *d_image[2];
+    long pixels;                /* what image and d_image hold */
+    int *rows[2], rows_capacity[2]; /* each field's rows with a gradient this iteration */
+    gv_rng rng;                 /* the pseudo cameras */
+    double weight;              /* 1: as heavy as the training view */
+    int from;                   /* only after this iteration (the densification start) */
+    long pseudo_views;
+} gv_splat_corgs;
+
+/* The pair's loss at view and its gradient: grad[k] (SH degree of g[k], capacity >= its
+ * rows) gets dL/dparams on the rows visible in c->renderer[k] (the others untouched). */
+int gv_splat_corgs_pseudo_grad(gv_splat_corgs *c, const gv_gaussians *g0, const gv_gaussians *g1,
+                               const gv_splat_view *view, int active_degree, double lambda,
+                               double weight, gv_gaussians *grad0, gv_gaussians *grad1,
+                               double *loss);
+void gv_splat_corgs_free(gv_splat_corgs *c);
+/* CoR-GS: one iteration of both trainers with the pseudo-view term after c->from, then, if
+ * either densified, co-pruning at tau x a's extent; pruned[0] and pruned[1] count the
+ * removed Gaussians of a and b. */
+int gv_splat_corgs_step(gv_splat_corgs *c, gv_splat_trainer *a, gv_splat_trainer *b, double tau,
+                        long *pruned);
 void gv_splat_trainer_free(gv_splat_trainer *t);
 /* Trains on the frames 0, n, 2n, ... (n = interval) of a scene and returns the model in
  * out (to be freed with gv_gaussians_free). */

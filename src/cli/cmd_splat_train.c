@@ -1,6 +1,7 @@
 /* gaussvid splat train --scene DIR --out model.ply: sparse-view 3DGS training on frames
  * 0, n, 2n, ... of a scene (docs/SPLAT_TRAINING.md). */
 #include <stdio.h>
+#include <stdlib.h>
 
 #include "cli/commands.h"
 #include "gaussvid/core.h"
@@ -8,12 +9,28 @@
 #include "gaussvid/scene.h"
 #include "gaussvid/splat_train.h"
 
+/* Pixels of the training views (frames 0, n, 2n, ...); 0 when the split fails (training
+ * then reports why). */
+static long training_pixels(const gv_scene *scene, int interval)
+{
+    int n = scene->n_frames, n_train = 0, n_held_out = 0;
+    int *train = malloc((size_t)(n > 0 ? n : 1) * sizeof(int));
+    int *held_out = malloc((size_t)(n > 0 ? n : 1) * sizeof(int));
+    long pixels = 0;
+    if (train && held_out && gv_scene_split(n, interval, train, &n_train, held_out, &n_held_out) == 0)
+        for (int i = 0; i < n_train; i++)
+            pixels += (long)scene->cameras[train[i]].width * scene->cameras[train[i]].height;
+    free(train), free(held_out);
+    return pixels;
+}
+
 int cmd_splat_train(int argc, char **argv)
 {
     const char *scene_dir = NULL, *out = NULL;
     int interval = 1, iterations = 30000, downscale = 1, sh_degree = 3, seed = 0;
-    double grad_threshold = 0, per_pixel = 0, regularizer = 0.01;
-    const char *densify = "reference";
+    double grad_threshold = 0, per_pixel = 0, regularizer = 0.01, fsgs_distance = 0.1,
+           corgs_distance = 0.05, corgs_pseudo = 1.0;
+    const char *densify = "lean", *regularize = "none";
     int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &scene_dir, "DIR", "scene folder (COLMAP sparse/0 or transforms.json)", 1},
@@ -27,7 +44,11 @@ int cmd_splat_train(int argc, char **argv)
         {"random-bg", GV_FLAG_BOOL, &random_bg, NULL, "a random background colour per iteration", 0},
         {"sparse-adam", GV_FLAG_BOOL, &sparse_adam, NULL,
          "lean and reference: Adam on the visible Gaussians only (default: all; mcmc steps all)", 0},
-        {"densify", GV_FLAG_STRING, &densify, "MODE", "reference (default), lean or mcmc", 0},
+        {"densify", GV_FLAG_STRING, &densify, "MODE", "lean (default), reference or mcmc", 0},
+        {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "sparse-view regularisers: none (default), dropgaussian, fsgs, corgs", 0},
+        {"corgs-distance", GV_FLAG_DOUBLE, &corgs_distance, "X", "corgs: co-prune Gaussians without a counterpart within X x the scene extent (default 0.05)", 0},
+        {"corgs-pseudo", GV_FLAG_DOUBLE, &corgs_pseudo, "W", "corgs: weight of the pseudo-view term (default 1; 0: co-pruning alone)", 0},
+        {"fsgs-distance", GV_FLAG_DOUBLE, &fsgs_distance, "X", "fsgs: unpool where the proximity score exceeds X x the scene extent (default 0.1)", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
         {"regularizer", GV_FLAG_DOUBLE, &regularizer, "X", "mcmc: weight of the opacity and scale L1 terms (default 0.01)", 0},
@@ -38,16 +59,32 @@ int cmd_splat_train(int argc, char **argv)
         "Trains on frames 0, N, 2N, ... (N = --interval): initialisation from the scene's\n"
         "points, Adam with the reference learning rates, one more SH degree every 1000\n"
         "iterations, loss 0.8 L1 + 0.2 (1 - SSIM). Density control (--densify):\n"
-        "  reference  (default) the paper's: clone/split/prune from iteration 500 to 15000\n"
-        "             every 100, opacity reset every 3000\n"
-        "  lean       the reference's at twice its gradient threshold: a third of the\n"
-        "             Gaussians at 256x144, 1.9x faster; the same held-out PSNR on\n"
+        "  lean       (default) the reference's at twice its gradient threshold: a third\n"
+        "             of the Gaussians at 256x144, 1.9x faster; the same held-out PSNR on\n"
         "             average, 0.001 lower SSIM\n"
+        "  reference  the paper's: clone/split/prune from iteration 500 to 15000 every\n"
+        "             100, opacity reset every 3000 (what `dataset build` trains)\n"
         "  mcmc       a budget of --per-pixel Gaussians per training pixel; transparent\n"
         "             Gaussians are relocated onto opaque ones, the count grows by 5 % every\n"
         "             100 iterations from 500 until the budget (3DGS as MCMC): about 2.6x\n"
         "             faster, better held out on some scenes, worse on others\n"
-        "--iters N stops the schedule early (nothing is rescaled).\n"
+        "Sparse-view regularisers (--regularize, none = plain 3DGS):\n"
+        "  dropgaussian  each training render leaves out a random share of the Gaussians\n"
+        "             (0 growing linearly to 0.2 at the last iteration) and scales the\n"
+        "             opacity of the others by 1 / (1 - share); renders are unchanged\n"
+        "  fsgs       FSGS's unpooling: at each densification step, a Gaussian whose 3\n"
+        "             nearest are far (root mean square distance > --fsgs-distance x\n"
+        "             extent, up to 10 times that) gets a new one at the midpoint to each\n"
+        "             (lean, reference)\n"
+        "  corgs      CoR-GS's co-pruning: a second field trains alongside (twice the\n"
+        "             time); at each densification step the Gaussians of either with no\n"
+        "             counterpart in the other within --corgs-distance x extent are\n"
+        "             pruned (lean, reference); the first field is the model; from\n"
+        "             iteration 500 the two fields' renders at a camera between two\n"
+        "             training views are pulled together (--corgs-pseudo)\n"
+        "--iters N stops the schedule early (nothing is rescaled; the drop share\n"
+        "follows --iters).\n"
+        "The last line gives the Gaussian count and the Gaussians per training pixel.\n"
         "Same seed, inputs and --threads give the same model. See docs/SPLAT_TRAINING.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
     int parsed = gv_args_parse(&spec, argc, argv, NULL, NULL);
@@ -73,20 +110,36 @@ int cmd_splat_train(int argc, char **argv)
         fprintf(stderr, "gaussvid splat train: --densify %s: expected " GV_DENSIFY_MODE_NAMES "\n", densify);
         return 2;
     }
+    if (!(corgs_pseudo >= 0)) {
+        fprintf(stderr, "gaussvid splat train: --corgs-pseudo must be 0 or more\n");
+        return 2;
+    }
+    if (!(fsgs_distance > 0) || !(corgs_distance > 0)) {
+        fprintf(stderr, "gaussvid splat train: --fsgs-distance and --corgs-distance must be positive\n");
+        return 2;
+    }
     if (max_gaussians < 0 || per_pixel < 0 || regularizer < 0 || grad_threshold < 0) {
         fprintf(stderr, "gaussvid splat train: --max-gaussians, --per-pixel, --regularizer and --grad-threshold "
                         "must be non-negative\n");
         return 2;
     }
     opt.densify_mode = (gv_splat_densify_mode)mode;
+    if ((opt.regularize = gv_splat_regularize_parse(regularize)) < 0) {
+        fprintf(stderr, "gaussvid splat train: --regularize %s: expected " GV_REGULARIZE_NAMES "\n", regularize);
+        return 2;
+    }
     opt.mcmc.cap = max_gaussians;
     opt.mcmc.opacity_reg = opt.mcmc.scale_reg = regularizer;
     if (per_pixel > 0) opt.gaussians_per_pixel = per_pixel;
     opt.densify.grad_threshold = grad_threshold; /* 0: the mode's */
+    opt.fsgs_distance = fsgs_distance;
+    opt.corgs_distance = corgs_distance;
+    opt.corgs_pseudo_weight = corgs_pseudo;
     opt.progress_label = "train";
     gv_scene_options so = {.downscale = downscale, .white_background = white_bg};
     gv_scene scene;
     if (gv_scene_load(scene_dir, &so, &scene) != 0) return gv_report_failure();
+    long pixels = training_pixels(&scene, interval);
     gv_gaussians model;
     double start = gv_now();
     gv_atomic_sweep_beside(out); /* a killed run's temporary (the run starts again) */
@@ -97,8 +150,9 @@ int cmd_splat_train(int argc, char **argv)
     gv_scene_free(&scene);
     int written = gv_gaussians_write_ply(out, &model);
     if (written == 0)
-        printf("%s: %d Gaussians, SH degree %d, %d iterations in %.1f s\n", out, model.n,
-               model.sh_degree, iterations, gv_now() - start);
+        printf("%s: %d Gaussians, SH degree %d, %d iterations in %.1f s, %.3f Gaussians per "
+               "training pixel\n", out, model.n, model.sh_degree, iterations, gv_now() - start,
+               pixels > 0 ? model.n / (double)pixels : 0.0);
     gv_gaussians_free(&model);
     return written == 0 ? 0 : gv_report_failure();
 }

@@ -22,7 +22,7 @@ void gv_dataset_default_params(gv_dataset_params *p)
     p->downscale = 1;
     p->sampling = GV_SAMPLING_UNIFORM;
     p->seed = 0;
-    p->densify = GV_DENSIFY_DEFAULT;
+    p->densify = GV_DENSIFY_REFERENCE; /* the paper's artifacts: the restorer's training data */
 }
 
 uint64_t gv_run_seed(uint64_t seed, const char *scene, int n)

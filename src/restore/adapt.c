@@ -17,7 +17,7 @@ void gv_adapt_defaults(gv_adapt_options *o)
     memset(o, 0, sizeof *o);
     o->downscale = 1;
     o->iters = 8000;                  /* paper 3.2, as `dataset build` */
-    o->densify = GV_DENSIFY_DEFAULT;  /* as `splat train` and `reconstruct` train the user's model */
+    o->densify = GV_DENSIFY_REFERENCE; /* the internal pairs simulate the paper's artifacts, as `dataset build` */
     o->subsets = GV_INTERNAL_SUBSETS; /* every other view: two 3DGS runs */
     o->hold_every = 3;
     gv_train_defaults(&o->train, GV_OBJECTIVE_FINETUNE);

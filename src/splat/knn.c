@@ -5,6 +5,7 @@
  * of each range at its middle, split on the range's widest axis), then one independent
  * query per point, in parallel. The result does not depend on the thread count. */
 #include <float.h>
+#include <math.h>
 #include <stdlib.h>
 
 #include "gaussvid/core.h"
@@ -78,18 +79,19 @@ static void build(kdtree *t, int lo, int hi)
     }
 }
 
-/* The k smallest squared distances seen so far, ascending. */
+/* The k smallest squared distances seen so far, ascending, and their points. */
 typedef struct {
     int k, count;
     double d2[KNN_MAX_K];
+    int point[KNN_MAX_K];
 } best_list;
 
-static void offer(best_list *b, double d2)
+static void offer(best_list *b, double d2, int point)
 {
     if (b->count == b->k && d2 >= b->d2[b->k - 1]) return;
     int i = b->count < b->k ? b->count++ : b->k - 1;
-    while (i > 0 && b->d2[i - 1] > d2) b->d2[i] = b->d2[i - 1], i--;
-    b->d2[i] = d2;
+    while (i > 0 && b->d2[i - 1] > d2) b->d2[i] = b->d2[i - 1], b->point[i] = b->point[i - 1], i--;
+    b->d2[i] = d2, b->point[i] = point;
 }
 
 static double worst(const best_list *b)
@@ -104,7 +106,7 @@ static void search(const kdtree *t, int lo, int hi, int self, const float q[3], 
         const float *x = t->xyz + 3 * p;
         if (p != self) {
             double dx = (double)x[0] - q[0], dy = (double)x[1] - q[1], dz = (double)x[2] - q[2];
-            offer(b, dx * dx + dy * dy + dz * dz);
+            offer(b, dx * dx + dy * dy + dz * dz, p);
         }
         if (hi - lo == 1) return;
         int axis = t->axis[mid];
@@ -119,18 +121,31 @@ static void search(const kdtree *t, int lo, int hi, int self, const float q[3], 
     }
 }
 
-int gv_knn_mean_sq_dist(int n, const float *xyz, int k, float *out)
+static int tree_new(kdtree *t, int n, const float *xyz)
+{
+    *t = (kdtree){xyz, malloc((size_t)(n > 0 ? n : 1) * sizeof(int)), malloc((size_t)(n > 0 ? n : 1))};
+    if (!t->index || !t->axis) {
+        free(t->index), free(t->axis);
+        return gv_fail("knn: out of memory for %d points", n);
+    }
+    for (int i = 0; i < n; i++) t->index[i] = i, t->axis[i] = 0;
+    build(t, 0, n);
+    return 0;
+}
+
+static int check_args(int n, int k)
 {
     if (k < 1 || k > KNN_MAX_K) return gv_fail("knn: k = %d is not in 1..%d", k, KNN_MAX_K);
     if (n < 0) return gv_fail("knn: negative point count %d", n);
+    return 0;
+}
+
+int gv_knn_mean_sq_dist(int n, const float *xyz, int k, float *out)
+{
+    if (check_args(n, k) != 0) return -1;
     if (n == 0) return 0;
-    kdtree t = {xyz, malloc((size_t)n * sizeof(int)), malloc((size_t)n)};
-    if (!t.index || !t.axis) {
-        free(t.index), free(t.axis);
-        return gv_fail("knn: out of memory for %d points", n);
-    }
-    for (int i = 0; i < n; i++) t.index[i] = i, t.axis[i] = 0;
-    build(&t, 0, n);
+    kdtree t;
+    if (tree_new(&t, n, xyz) != 0) return -1;
 #pragma omp parallel for schedule(dynamic, 256)
     for (int i = 0; i < n; i++) {
         best_list b = {.k = k < n - 1 ? k : n - 1, .count = 0};
@@ -139,6 +154,28 @@ int gv_knn_mean_sq_dist(int n, const float *xyz, int k, float *out)
         double sum = 0;
         for (int j = 0; j < b.count; j++) sum += b.d2[j];
         out[i] = (float)(sum / b.count);
+    }
+    free(t.index), free(t.axis);
+    return 0;
+}
+
+int gv_knn_neighbors(int n, const float *xyz, int n_query, const float *query, int k,
+                     int *index, double *sq_dist)
+{
+    if (check_args(n, k) != 0) return -1;
+    if (n_query < 0) return gv_fail("knn: negative query count %d", n_query);
+    kdtree t;
+    if (tree_new(&t, n, xyz) != 0) return -1;
+    int self_query = query == NULL;
+    if (self_query) query = xyz, n_query = n;
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int i = 0; i < n_query; i++) {
+        best_list b = {.k = k, .count = 0};
+        if (n > 0) search(&t, 0, n, self_query ? i : -1, query + 3 * (size_t)i, &b);
+        for (int j = 0; j < k; j++) {
+            index[(size_t)i * k + j] = j < b.count ? b.point[j] : -1;
+            sq_dist[(size_t)i * k + j] = j < b.count ? b.d2[j] : INFINITY;
+        }
     }
     free(t.index), free(t.axis);
     return 0;

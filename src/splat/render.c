@@ -53,6 +53,18 @@ int gv_splat_render_forward(gv_splat_renderer *r, const gv_gaussians *g,
                             const gv_splat_view *view, int active_degree, const float bg[3],
                             float *image)
 {
+    return gv_splat_render_forward_scaled(r, g, view, active_degree, bg, NULL, image);
+}
+
+static float sigmoid(float x)
+{
+    return 1.0f / (1.0f + expf(-x));
+}
+
+int gv_splat_render_forward_scaled(gv_splat_renderer *r, const gv_gaussians *g,
+                                   const gv_splat_view *view, int active_degree,
+                                   const float bg[3], const float *opacity_scale, float *image)
+{
     if (g->sh_degree < 0 || g->sh_degree > 3 || active_degree < 0 ||
         active_degree > g->sh_degree)
         return gv_fail("render: active SH degree %d is not in 0..%d", active_degree,
@@ -65,11 +77,15 @@ int gv_splat_render_forward(gv_splat_renderer *r, const gv_gaussians *g,
     if (ensure_capacity(r, g->n, pixels)) return -1;
     r->n = g->n, r->sh_degree = g->sh_degree, r->active_degree = active_degree;
     r->view = *view;
+    r->opacity_scale = opacity_scale;
     for (int c = 0; c < 3; c++) r->bg[c] = bg[c];
 
     double wall = gv_now(), cpu = gv_cpu_now();
     gv_splat_project_forward(g->n, g->means, g->scales, g->rotations, view, r->means2d,
                              r->conics, r->depths, r->radii);
+    if (opacity_scale) /* a dropped Gaussian is culled: binning leaves it out */
+        for (int i = 0; i < g->n; i++)
+            if (opacity_scale[i] == 0) r->radii[i] = 0;
     stage_done(r, GV_STAGE_PROJECT, &wall, &cpu);
     if (gv_splat_tiles_build(&r->tiles, g->n, view->width, view->height, r->means2d, r->radii,
                              r->depths))
@@ -83,7 +99,8 @@ int gv_splat_render_forward(gv_splat_renderer *r, const gv_gaussians *g,
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < nv; k++) {
         int i = vis[k];
-        r->opacities[i] = 1.0f / (1.0f + expf(-g->opacities[i])); /* sigmoid */
+        r->opacities[i] = sigmoid(g->opacities[i]);
+        if (opacity_scale) r->opacities[i] *= opacity_scale[i];
     }
     stage_done(r, GV_STAGE_OPACITY, &wall, &cpu);
     gv_splat_rasterize_forward(&r->tiles, view->width, view->height, r->means2d, r->conics,
@@ -113,8 +130,13 @@ int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < nv; k++) {
         int i = vis[k];
-        float o = r->opacities[i];
-        grad->opacities[i] = r->d_opacities[i] * o * (1.0f - o); /* through the sigmoid */
+        if (r->opacity_scale) { /* opacity = scale sigmoid(logit) */
+            float o = sigmoid(g->opacities[i]);
+            grad->opacities[i] = r->d_opacities[i] * r->opacity_scale[i] * o * (1.0f - o);
+        } else {
+            float o = r->opacities[i];
+            grad->opacities[i] = r->d_opacities[i] * o * (1.0f - o); /* through the sigmoid */
+        }
         if (densify_grad) {
             /* 3DGS accumulates the gradient w.r.t. NDC, i.e. pixels x (W/2, H/2). */
             float gx = r->d_means2d[2 * i] * half_w, gy = r->d_means2d[2 * i + 1] * half_h;

@@ -4,7 +4,8 @@
  *   2. one more SH degree at every multiple of sh_interval;
  *   3. next training view from a shuffled epoch order (train.py pops a random view from a
  *      stack refilled when empty: a permutation per epoch);
- *   4. background, render, loss 0.8 L1 + 0.2 (1 - SSIM), backward;
+ *   4. background, render (with DropGaussian, of a random share of the Gaussians:
+ *      src/splat/dropgaussian.c), loss 0.8 L1 + 0.2 (1 - SSIM), backward;
  *   5. while iteration < densify_until: densification statistics of the visible Gaussians;
  *      densify_and_prune when iteration > densify_from and a multiple of densify_interval;
  *      opacity reset at multiples of opacity_reset_interval;
@@ -16,6 +17,7 @@
  * train.py saves the model at that iteration before its densification, and steps Adam only
  * while iteration < iterations, so the model returned is the one the reference saves. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -28,7 +30,7 @@
 
 /* Philox streams of one training run, derived from the seed. */
 enum { STREAM_VIEWS = 1, STREAM_BACKGROUND = 2, STREAM_SPLIT = 3, STREAM_INIT = 4,
-       STREAM_NOISE = 5 };
+       STREAM_NOISE = 5, STREAM_DROP = 6 };
 
 static uint64_t stream_seed(uint64_t seed, int stream)
 {
@@ -52,6 +54,9 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     opt->densify_mode = GV_DENSIFY_DEFAULT;
     gv_splat_mcmc_defaults(&opt->mcmc);
     opt->gaussians_per_pixel = 0.02;
+    opt->fsgs_distance = 0.1;
+    opt->corgs_distance = 0.05;
+    opt->corgs_pseudo_weight = 1.0;
 }
 
 double gv_splat_densify_threshold(const gv_splat_train_options *opt)
@@ -75,13 +80,55 @@ const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode)
     return mode == GV_DENSIFY_MCMC ? "mcmc" : mode == GV_DENSIFY_LEAN ? "lean" : "reference";
 }
 
-/* The list 0 .. capacity - 1 (Adam's rows when a regulariser gives every row a gradient). */
+static const struct { const char *name; int bit; } REGULARIZERS[] = {
+    {"dropgaussian", GV_REGULARIZE_DROPGAUSSIAN},
+    {"fsgs", GV_REGULARIZE_FSGS},
+    {"corgs", GV_REGULARIZE_CORGS},
+};
+enum { N_REGULARIZERS = sizeof REGULARIZERS / sizeof REGULARIZERS[0] };
+
+int gv_splat_regularize_parse(const char *list)
+{
+    if (strcmp(list, "none") == 0) return 0;
+    int set = 0;
+    const char *p = list;
+    for (;;) {
+        size_t len = strcspn(p, ",");
+        int bit = 0;
+        for (int k = 0; k < N_REGULARIZERS; k++)
+            if (strlen(REGULARIZERS[k].name) == len && strncmp(p, REGULARIZERS[k].name, len) == 0)
+                bit = REGULARIZERS[k].bit;
+        if (bit == 0 || (set & bit)) return -1; /* unknown, empty or repeated */
+        set |= bit;
+        if (p[len] == '\0') return set;
+        p += len + 1;
+    }
+}
+
+void gv_splat_regularize_name(int set, char *buf, size_t n)
+{
+    if (n == 0) return;
+    snprintf(buf, n, "%s", set == 0 ? "none" : "");
+    for (int k = 0; k < N_REGULARIZERS; k++)
+        if (set & REGULARIZERS[k].bit) {
+            size_t used = strlen(buf);
+            snprintf(buf + used, n - used, "%s%s", used ? "," : "", REGULARIZERS[k].name);
+        }
+}
+
+/* The list 0 .. capacity - 1 (Adam's rows when a regulariser gives every row a gradient),
+ * and DropGaussian's scales, for every row of the capacity. */
 static int grow_all_rows(gv_splat_trainer *t)
 {
     int *rows = realloc(t->all_rows, (size_t)t->params.capacity * sizeof(int));
     if (!rows) return -1;
     for (int i = 0; i < t->params.capacity; i++) rows[i] = i;
     t->all_rows = rows;
+    if (t->opt.regularize & GV_REGULARIZE_DROPGAUSSIAN) {
+        float *scale = realloc(t->drop_scale, (size_t)t->params.capacity * sizeof(float));
+        if (!scale) return -1;
+        t->drop_scale = scale;
+    }
     return 0;
 }
 
@@ -95,6 +142,16 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
         if (!(opt->view_weights[i] >= 0) || !isfinite(opt->view_weights[i]))
             return gv_fail("train: view %d has weight %g; weights must be finite and >= 0", i, opt->view_weights[i]);
     if (opt->iterations < 1) return gv_fail("train: %d iterations; need at least 1", opt->iterations);
+    if ((opt->regularize & GV_REGULARIZE_FSGS) && opt->densify_mode == GV_DENSIFY_MCMC)
+        return gv_fail("train: fsgs unpools at the densification steps of lean or reference density control, not mcmc");
+    if ((opt->regularize & GV_REGULARIZE_CORGS) && opt->densify_mode == GV_DENSIFY_MCMC)
+        return gv_fail("train: corgs co-prunes at the densification steps of lean or reference density control, not mcmc");
+    if ((opt->regularize & GV_REGULARIZE_CORGS) && !(opt->corgs_pseudo_weight >= 0 && isfinite(opt->corgs_pseudo_weight)))
+        return gv_fail("train: the corgs pseudo-view weight is %g; it must be finite and >= 0", opt->corgs_pseudo_weight);
+    if ((opt->regularize & GV_REGULARIZE_CORGS) && !(opt->corgs_distance > 0))
+        return gv_fail("train: the corgs distance is %g; it must be positive", opt->corgs_distance);
+    if ((opt->regularize & GV_REGULARIZE_FSGS) && !(opt->fsgs_distance > 0))
+        return gv_fail("train: the fsgs distance is %g; it must be positive", opt->fsgs_distance);
     if (opt->sh_degree < 0 || opt->sh_degree > 3)
         return gv_fail("train: SH degree %d is not in 0..3", opt->sh_degree);
     const gv_splat_schedule *s = &opt->schedule;
@@ -207,7 +264,7 @@ void gv_splat_trainer_free(gv_splat_trainer *t)
     gv_splat_renderer_free(&t->renderer);
     gv_splat_loss_free(&t->loss_work);
     free(t->views), free(t->order), free(t->render), free(t->target), free(t->d_render);
-    free(t->densify_grad), free(t->all_rows);
+    free(t->densify_grad), free(t->all_rows), free(t->drop_scale);
     memset(t, 0, sizeof *t);
 }
 
@@ -250,6 +307,12 @@ static int density_control(gv_splat_trainer *t)
             return -1;
         t->densified.cloned += c.cloned, t->densified.split += c.split;
         t->densified.pruned += c.pruned;
+        if (t->opt.regularize & GV_REGULARIZE_FSGS) { /* after the reference's control */
+            int added;
+            if (gv_splat_fsgs_unpool(&t->params, &t->adam, t->opt.fsgs_distance * t->extent, &added))
+                return -1;
+            t->unpooled += added;
+        }
         done |= 1;
     }
     if (it % s->opacity_reset_interval == 0 ||
@@ -269,6 +332,7 @@ static int resize_buffers(gv_splat_trainer *t)
     int cap = t->params.capacity;
     if (gv_gaussians_reserve(&t->grad, cap) != 0) return -1;
     if (cap > t->stats.capacity && gv_splat_densify_stats_reserve(&t->stats, cap) != 0) return -1;
+    gv_splat_densify_stats_clear(&t->stats, t->params.n); /* zero after a densification */
     float *d = realloc(t->densify_grad, (size_t)cap * sizeof(float));
     if (!d) return gv_fail("train: out of memory for %d Gaussians", cap);
     t->densify_grad = d;
@@ -284,6 +348,11 @@ static int resize_buffers(gv_splat_trainer *t)
     return 0;
 }
 
+int gv_splat_trainer_rows_changed(gv_splat_trainer *t)
+{
+    return resize_buffers(t);
+}
+
 /* Steps 5 and 6 of the reference: density control, then Adam (skipped in an iteration
  * that densified). */
 static int reference_update(gv_splat_trainer *t, double seconds[2])
@@ -291,6 +360,7 @@ static int reference_update(gv_splat_trainer *t, double seconds[2])
     double t0 = gv_now();
     int control = density_control(t);
     if (control < 0) return -1;
+    t->last_control = control;
     double t1 = gv_now();
     if (control & 1) {
         if (resize_buffers(t) != 0) return -1;
@@ -300,7 +370,9 @@ static int reference_update(gv_splat_trainer *t, double seconds[2])
         int n_coeffs = gv_sh_coefficient_count(t->active_degree);
         /* The last iteration does not step (train.py): its gradient is only dropped. */
         if (t->iteration >= t->opt.iterations) groups = 0;
-        gv_splat_adam_step(&t->adam, &t->params, &t->grad, r->tiles.visible, r->tiles.n_visible,
+        const int *rows = t->update_rows ? t->update_rows : r->tiles.visible;
+        int n_rows = t->update_rows ? t->n_update_rows : r->tiles.n_visible;
+        gv_splat_adam_step(&t->adam, &t->params, &t->grad, rows, n_rows,
                            groups != 0 && !t->opt.sparse_adam, n_coeffs, groups);
     }
     seconds[0] = t1 - t0, seconds[1] = gv_now() - t1;
@@ -336,7 +408,7 @@ static int mcmc_update(gv_splat_trainer *t, double seconds[2])
     return 0;
 }
 
-int gv_splat_trainer_step(gv_splat_trainer *t)
+int gv_splat_trainer_forward_backward(gv_splat_trainer *t)
 {
     int it = ++t->iteration;
     gv_splat_adam_set_iteration(&t->adam, it);
@@ -348,7 +420,16 @@ int gv_splat_trainer_step(gv_splat_trainer *t)
     background(t, bg);
 
     double t0 = gv_now();
-    if (gv_splat_render_forward(&t->renderer, &t->params, view, t->active_degree, bg, t->render))
+    const float *scale = NULL; /* DropGaussian: this render's opacity scales */
+    if (t->opt.regularize & GV_REGULARIZE_DROPGAUSSIAN) {
+        double rate = gv_splat_drop_rate(it, t->opt.iterations);
+        t->dropped += gv_splat_drop_draw(t->params.n, rate,
+                                         stream_seed(t->opt.seed, STREAM_DROP) + (uint64_t)it,
+                                         t->drop_scale);
+        scale = t->drop_scale;
+    }
+    if (gv_splat_render_forward_scaled(&t->renderer, &t->params, view, t->active_degree, bg,
+                                       scale, t->render))
         return gv_fail_context("train: iteration %d", it);
     double t1 = gv_now();
     gv_image_to_float(&t->images[v], t->target);
@@ -367,12 +448,24 @@ int gv_splat_trainer_step(gv_splat_trainer *t)
     if (gv_splat_render_backward(&t->renderer, &t->params, t->d_render, &t->grad, t->densify_grad))
         return gv_fail_context("train: iteration %d", it);
     double t3 = gv_now();
+    t->seconds[GV_PHASE_RENDER] += t1 - t0, t->seconds[GV_PHASE_LOSS] += t2 - t1;
+    t->seconds[GV_PHASE_BACKWARD] += t3 - t2;
+    return 0;
+}
+
+int gv_splat_trainer_update(gv_splat_trainer *t)
+{
     double seconds[2]; /* densification, Adam */
     int rc = t->opt.densify_mode == GV_DENSIFY_MCMC ? mcmc_update(t, seconds)
                                                     : reference_update(t, seconds);
-    if (rc != 0) return gv_fail_context("train: iteration %d", it);
-    t->seconds[GV_PHASE_RENDER] += t1 - t0, t->seconds[GV_PHASE_LOSS] += t2 - t1;
-    t->seconds[GV_PHASE_BACKWARD] += t3 - t2, t->seconds[GV_PHASE_DENSIFY] += seconds[0];
+    t->update_rows = NULL, t->n_update_rows = 0; /* one iteration's */
+    if (rc != 0) return gv_fail_context("train: iteration %d", t->iteration);
+    t->seconds[GV_PHASE_DENSIFY] += seconds[0];
     t->seconds[GV_PHASE_ADAM] += seconds[1];
     return 0;
+}
+
+int gv_splat_trainer_step(gv_splat_trainer *t)
+{
+    return gv_splat_trainer_forward_backward(t) != 0 || gv_splat_trainer_update(t) != 0 ? -1 : 0;
 }

@@ -7,23 +7,34 @@
 #include "gaussvid/core.h"
 #include "gaussvid/splat_train.h"
 
+/* CoR-GS's second field trains with the seed plus this (its own view order and splits). */
+#define CORGS_SEED_OFFSET 7919
+
 static void free_images(gv_image *images, int n)
 {
     for (int i = 0; i < n; i++) gv_image_free(&images[i]);
     free(images);
 }
 
-static int run(gv_splat_trainer *t, const char *label)
+/* Trains t (and with CoR-GS its partner field b, stepped together) to the end. */
+static int run(gv_splat_trainer *t, gv_splat_trainer *b, gv_splat_corgs *c, const char *label)
 {
     gv_progress bar;
+    long coprune[2] = {0, 0};
     if (label) gv_progress_start(&bar, label, t->opt.iterations);
     while (t->iteration < t->opt.iterations) {
-        if (gv_splat_trainer_step(t) != 0) return -1;
+        if (b ? gv_splat_corgs_step(c, t, b, t->opt.corgs_distance, coprune) != 0
+              : gv_splat_trainer_step(t) != 0)
+            return -1;
         if (label && (t->iteration % 10 == 0 || t->iteration == t->opt.iterations))
             gv_progress_update(&bar, t->iteration, "loss %.4f  %d Gaussians  SH %d", t->ema_loss,
                                t->params.n, t->active_degree);
     }
     if (label) gv_progress_finish(&bar);
+    if (b)
+        gv_info("CoR-GS co-pruning (within %g x extent): %ld and %ld Gaussians pruned; the "
+                "second field ends with %d; %ld pseudo views (weight %g)", t->opt.corgs_distance,
+                coprune[0], coprune[1], b->params.n, c->pseudo_views, c->weight);
     double per = 1000.0 / (t->iteration > 0 ? t->iteration : 1);
     gv_info("ms per iteration: render %.2f, loss %.2f, backward %.2f, densify %.2f, Adam %.2f",
             t->seconds[GV_PHASE_RENDER] * per, t->seconds[GV_PHASE_LOSS] * per,
@@ -36,6 +47,16 @@ static int run(gv_splat_trainer *t, const char *label)
         gv_info("%s density control (threshold %g): %d cloned, %d split, %d pruned",
                 gv_splat_densify_mode_name(t->opt.densify_mode), t->opt.densify.grad_threshold,
                 t->densified.cloned, t->densified.split, t->densified.pruned);
+    char names[64];
+    gv_splat_regularize_name(t->opt.regularize, names, sizeof names);
+    gv_info("sparse-view regularisers: %s", names);
+    if (t->opt.regularize & GV_REGULARIZE_FSGS)
+        gv_info("FSGS unpooling (proximity above %g x extent): %ld Gaussians added",
+                t->opt.fsgs_distance, t->unpooled);
+    if (t->opt.regularize & GV_REGULARIZE_DROPGAUSSIAN)
+        gv_info("DropGaussian: rate up to %.2f, %.1f Gaussians left out per render on average",
+                gv_splat_drop_rate(t->iteration, t->opt.iterations),
+                (double)t->dropped / (t->iteration > 0 ? t->iteration : 1));
     return 0;
 }
 
@@ -46,8 +67,11 @@ int gv_splat_train_views(const gv_scene *scene, const int *views, int n_views,
     gv_camera *cameras = malloc((size_t)(n_views > 0 ? n_views : 1) * sizeof(gv_camera));
     gv_image *images = calloc((size_t)(n_views > 0 ? n_views : 1), sizeof(gv_image));
     int loaded = 0, ok = -1;
-    gv_splat_trainer t;
-    memset(&t, 0, sizeof t);
+    gv_splat_trainer t, partner; /* partner: CoR-GS's second field */
+    gv_splat_corgs corgs_work;   /* its pseudo-view term */
+    memset(&t, 0, sizeof t), memset(&partner, 0, sizeof partner);
+    memset(&corgs_work, 0, sizeof corgs_work);
+    int corgs = (opt->regularize & GV_REGULARIZE_CORGS) != 0;
     if (!cameras || !images) {
         gv_fail("%s: out of memory for %d views", scene->dir, n_views);
         goto done;
@@ -73,7 +97,19 @@ int gv_splat_train_views(const gv_scene *scene, const int *views, int n_views,
         gv_fail_context("%s", scene->dir);
         goto done;
     }
-    if (run(&t, opt->progress_label) != 0) {
+    if (corgs) { /* the same views and points, its own randomness */
+        gv_splat_train_options second = *opt;
+        second.seed = opt->seed + CORGS_SEED_OFFSET;
+        corgs_work.weight = opt->corgs_pseudo_weight;
+        corgs_work.from = opt->schedule.densify_from;
+        gv_rng_init(&corgs_work.rng, opt->seed + 2 * CORGS_SEED_OFFSET);
+        if (gv_splat_trainer_init(&partner, &second, n_views, cameras, images, extent, scene->n_points,
+                                  scene->points, scene->colors) != 0) {
+            gv_fail_context("%s (second field)", scene->dir);
+            goto done;
+        }
+    }
+    if (run(&t, corgs ? &partner : NULL, &corgs_work, opt->progress_label) != 0) {
         gv_fail_context("%s", scene->dir);
         goto done;
     }
@@ -82,7 +118,7 @@ int gv_splat_train_views(const gv_scene *scene, const int *views, int n_views,
     memset(&t.params, 0, sizeof t.params); /* ownership moves to the caller */
     ok = 0;
 done:
-    gv_splat_trainer_free(&t);
+    gv_splat_trainer_free(&t), gv_splat_trainer_free(&partner), gv_splat_corgs_free(&corgs_work);
     if (images) free_images(images, loaded);
     free(cameras);
     return ok;

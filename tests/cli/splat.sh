@@ -23,6 +23,9 @@ train "$tmp/a.ply" > "$tmp/train.txt" 2> "$tmp/train_err.txt"
 check "train exits 0" test $? -eq 0
 check "train writes the model" test -s "$tmp/a.ply"
 check "train prints the count" grep -q "Gaussians, SH degree 3, 60 iterations" "$tmp/train.txt"
+# 3 training views of 48x32 = 4608 pixels: the count over that, to three decimals.
+count=$(sed -n 's/.*: \([0-9]*\) Gaussians, SH degree.*/\1/p' "$tmp/train.txt")
+check "train prints Gaussians per training pixel" grep -q "$(awk -v n="$count" 'BEGIN { printf "%.3f Gaussians per training pixel", n / 4608 }')" "$tmp/train.txt"
 train "$tmp/b.ply" > /dev/null 2>&1
 check "same seed, same model" cmp -s "$tmp/a.ply" "$tmp/b.ply"
 train "$tmp/c.ply" --seed 6 --random-bg > /dev/null 2>&1
@@ -30,20 +33,46 @@ check "another seed, another model" test -s "$tmp/c.ply" -a -n "$(cmp "$tmp/a.pl
 "$gaussvid" splat train --scene "$scene" --iters 30 --sh-degree 1 --out "$tmp/d.ply" --quiet > "$tmp/d.txt"
 check "--sh-degree 1" grep -q "SH degree 1" "$tmp/d.txt"
 
-# Density control: the reference is the default; past the first densification (iteration
-# 600) lean's higher threshold gives another model, the reference's at threshold 0.0004; an
-# unknown mode is a usage error.
-train "$tmp/ref_default.ply" --iters 700 > /dev/null 2>&1
+# Density control: lean is the default; past the first densification (iteration 600) lean's
+# higher threshold gives another model, the reference's at threshold 0.0004; an unknown mode
+# is a usage error.
+train "$tmp/lean_default.ply" --iters 700 > /dev/null 2>&1
 train "$tmp/lean.ply" --iters 700 --densify lean > /dev/null 2>&1
 train "$tmp/lean_as_ref.ply" --iters 700 --densify reference --grad-threshold 0.0004 > /dev/null 2>&1
 train "$tmp/ref.ply" --iters 700 --densify reference > /dev/null 2>&1
-check "the reference is the default" cmp -s "$tmp/ref_default.ply" "$tmp/ref.ply"
+check "lean is the default" cmp -s "$tmp/lean_default.ply" "$tmp/lean.ply"
 check "lean = reference at threshold 0.0004" cmp -s "$tmp/lean.ply" "$tmp/lean_as_ref.ply"
 check "lean is another model" test -s "$tmp/ref.ply" -a -n "$(cmp "$tmp/lean.ply" "$tmp/ref.ply")"
 train "$tmp/x.ply" --densify dense > /dev/null 2> "$tmp/err.txt"
 check "unknown --densify exits 2" test $? -eq 2
 check "unknown --densify explained" grep -q "expected lean, reference or mcmc" "$tmp/err.txt"
 check "unknown --densify: no model" test ! -e "$tmp/x.ply"
+
+# Regularisers: none is the default (plain 3DGS); DropGaussian trains another model, the
+# same for the same seed; unknown, empty or repeated names are usage errors.
+train "$tmp/none.ply" --regularize none > /dev/null 2>&1
+check "--regularize none is the default" cmp -s "$tmp/a.ply" "$tmp/none.ply"
+train "$tmp/drop1.ply" --regularize dropgaussian > /dev/null 2>&1
+train "$tmp/drop2.ply" --regularize dropgaussian > /dev/null 2>&1
+check "dropgaussian: same seed, same model" cmp -s "$tmp/drop1.ply" "$tmp/drop2.ply"
+check "dropgaussian is another model" test -s "$tmp/drop1.ply" -a -n "$(cmp "$tmp/a.ply" "$tmp/drop1.ply")"
+for bad in dropout dropgaussian,dropgaussian "" dropgaussian, none,dropgaussian; do
+    train "$tmp/x.ply" --regularize "$bad" > /dev/null 2> "$tmp/err.txt"
+    check "--regularize '$bad' exits 2" test $? -eq 2
+    check "--regularize '$bad' explained" grep -q "expected none or a comma-separated list" "$tmp/err.txt"
+done
+check "bad --regularize: no model" test ! -e "$tmp/x.ply"
+train "$tmp/x.ply" --regularize fsgs --densify mcmc > /dev/null 2> "$tmp/err.txt"
+check "fsgs with mcmc refused" grep -q "fsgs unpools at the densification steps" "$tmp/err.txt"
+"$gaussvid" splat train --scene "$scene" --interval 4 --iters 700 --seed 5 --threads 2 --out "$tmp/fsgs.ply" \
+    --regularize fsgs,dropgaussian --fsgs-distance 0.05 > "$tmp/fsgs.txt" 2>&1
+check "fsgs,dropgaussian trains" test -s "$tmp/fsgs.ply"
+check "fsgs reports its unpooling" grep -q "FSGS unpooling (proximity above 0.05 x extent): [1-9][0-9]* Gaussians added" "$tmp/fsgs.txt"
+"$gaussvid" splat train --scene "$scene" --interval 4 --iters 700 --seed 5 --threads 2 --out "$tmp/corgs.ply" \
+    --regularize corgs --corgs-distance 0.02 > "$tmp/corgs.txt" 2>&1
+check "corgs trains" test -s "$tmp/corgs.ply"
+check "corgs reports its co-pruning" grep -q "CoR-GS co-pruning (within 0.02 x extent): [0-9]* and [0-9]* Gaussians pruned" "$tmp/corgs.txt"
+check "corgs is another model" test -n "$(cmp "$tmp/lean.ply" "$tmp/corgs.ply")"
 
 # Eval: 12 frames, 3 of them training views; JSON means and per-frame list.
 "$gaussvid" splat eval --model "$tmp/a.ply" --scene "$scene" --interval 4 --json "$tmp/e.json" > "$tmp/eval.txt"
