@@ -1,5 +1,5 @@
 /* The video stage of `reconstruct`: the evaluated frames in path order, render | restored |
- * ground truth (when the frame has it) side by side, encoded to nN/flythrough.mp4 by Debian's
+ * ground truth (when the frame has it; no restored panel with --no-restore) side by side, encoded to nN/flythrough.mp4 by Debian's
  * ffmpeg program (H.264 in MP4, yuv420p, the size padded to even numbers), fed raw RGB
  * through a pipe. It writes to a temporary beside the video and renames on success (the
  * atomic writer's naming, so gv_atomic_sweep removes a killed run's leftover); ffmpeg's own
@@ -23,17 +23,28 @@ int pipeline_find_ffmpeg(const gv_reconstruct_options *o, char *out, size_t size
                    "or stop earlier with --stop-after evaluate)");
 }
 
+/* The panels of a frame, left to right: "render", "restored" (unless --no-restore) and
+ * "truth" (when the frames have ground truth). */
+static int panel_list(const pipeline_run *r, const char *panels[3])
+{
+    int n = 0;
+    panels[n++] = "render";
+    if (r->opt->restore_with != GV_RESTORE_NONE) panels[n++] = "restored";
+    if (r->frames[0].truth >= 0) panels[n++] = "truth";
+    return n;
+}
+
 /* One side-by-side frame: the panels of frame i, each w x h, into out (W x H, W, H even). */
-static int compose(pipeline_run *r, int i, int panels, int w, int h, int W, uint8_t *out)
+static int compose(pipeline_run *r, int i, const char *const *names, int panels, int w, int h, int W, uint8_t *out)
 {
     const pipeline_frame *f = &r->frames[i];
     memset(out, 0, (size_t)W * h * 3 + (size_t)W * 3 * (size_t)(h & 1));
     for (int p = 0; p < panels; p++) {
         gv_image img = {0};
         char path[4200];
-        int rc = p < 2 ? pipeline_frame_path(r, p ? "restored" : "render", f->index, path, sizeof path) ||
-                             gv_image_read_rgb(path, &img)
-                       : gv_scene_load_image(r->scene, f->truth, &img);
+        int rc = strcmp(names[p], "truth") ? pipeline_frame_path(r, names[p], f->index, path, sizeof path) ||
+                                                 gv_image_read_rgb(path, &img)
+                                           : gv_scene_load_image(r->scene, f->truth, &img);
         if (rc == 0 && (img.width != w || img.height != h))
             rc = gv_fail("%s: frame %d is %dx%d, not %dx%d", r->dir, f->index, img.width, img.height, w, h);
         for (int y = 0; rc == 0 && y < h; y++)
@@ -90,7 +101,8 @@ int pipeline_video(pipeline_run *r)
         pipeline_file(r, "flythrough.log", log, sizeof log))
         return -1;
     snprintf(tmp, sizeof tmp, "%s.tmp.%ld", video, (long)getpid());
-    int w = r->frames[0].camera.width, h = r->frames[0].camera.height, panels = r->frames[0].truth >= 0 ? 3 : 2;
+    const char *names[3];
+    int w = r->frames[0].camera.width, h = r->frames[0].camera.height, panels = panel_list(r, names);
     int W = (panels * w + 1) & ~1, H = (h + 1) & ~1;
     uint8_t *frame = calloc((size_t)W * H * 3, 1);
     if (!frame) return gv_fail("out of memory for a %dx%d video frame", W, H);
@@ -103,7 +115,7 @@ int pipeline_video(pipeline_run *r)
     snprintf(label, sizeof label, "video n=%d", r->n);
     gv_progress_start(&bar, label, r->n_frames);
     for (int i = 0; i < r->n_frames && rc == 0; i++) {
-        rc = compose(r, i, panels, w, h, W, frame);
+        rc = compose(r, i, names, panels, w, h, W, frame);
         if (rc == 0 && write_all(to_ffmpeg, frame, (size_t)W * H * 3))
             rc = gv_fail("%s: ffmpeg stopped reading frames (its messages: %s)", video, log);
         gv_progress_update(&bar, i + 1, NULL);
@@ -118,8 +130,13 @@ int pipeline_video(pipeline_run *r)
     if (rc == 0 && rename(tmp, video)) rc = gv_fail("%s: cannot rename the video into place: %s", video, strerror(errno));
     if (rc) unlink(tmp);
     free(frame);
-    if (rc == 0)
-        snprintf(r->summary, sizeof r->summary, "%s: %d frames at %g fps, %s side by side", video, r->n_frames,
-                 r->opt->fps, panels == 3 ? "render | restored | ground truth" : "render | restored");
+    if (rc == 0) {
+        char layout[64] = "";
+        for (int p = 0; p < panels; p++)
+            snprintf(layout + strlen(layout), sizeof layout - strlen(layout), "%s%s", p ? " | " : "",
+                     strcmp(names[p], "truth") ? names[p] : "ground truth");
+        snprintf(r->summary, sizeof r->summary, "%s: %d frames at %g fps, %s%s", video, r->n_frames, r->opt->fps, layout,
+                 panels > 1 ? " side by side" : "");
+    }
     return rc;
 }
