@@ -158,7 +158,7 @@ int pipeline_restoration_decision(pipeline_run *r, char *why, size_t size)
 {
     why[0] = 0;
     if (r->opt->restore_with == GV_RESTORE_NONE) return snprintf(why, size, "--no-restore"), 0;
-    if (r->no_adapt[0]) return snprintf(why, size, "adaptation cannot run here (%s)", r->no_adapt), 0;
+    if (r->no_adapt[0]) return snprintf(why, size, "adaptation cannot run here"), 0;
     if (restorer_path(r)) return -1;
     int scene_ckpt = gv_scene_checkpoint_is(r->restorer);
     gv_scene_adaptation a;
@@ -221,7 +221,8 @@ int pipeline_restore(pipeline_run *r)
     else pipeline_decision_gate(r, NULL);
     pipeline_decision(r, "restoration", decision, decision ? NULL : why);
     if (decision == 0) { /* not run for nothing: the renders pass through */
-        snprintf(r->summary, sizeof r->summary, "skipped: %s; the restored frames are the renders", why);
+        snprintf(r->summary, sizeof r->summary, "skipped: %s%s%s%s; the restored frames are the renders", why,
+                 r->no_adapt[0] ? " (" : "", r->no_adapt, r->no_adapt[0] ? ")" : "");
         return pipeline_copy_frames(r, "render", "restored");
     }
     char clips_dir[4200], restored_dir[4200];

@@ -144,7 +144,7 @@ int pipeline_refine(pipeline_run *r)
     char why[700];
     int decision = pipeline_restoration_decision(r, why, sizeof why);
     if (decision < 0) return -1;
-    if (decision == 0) return keep_sparse(r, "nothing was restored (see restore)");
+    if (decision == 0) return keep_sparse(r, "nothing was restored");
     pipeline_decision(r, "refinement", 1, NULL);
     gv_gaussians sparse = {0};
     view_set views = {0};
