@@ -1,16 +1,17 @@
 #!/usr/bin/env bash
 # `make run`: the product's main path, `gaussvid reconstruct` (its gated default), on the
-# default scene, a procedural room (`scene synth --seed 1`: 160 frames of 256x144) that the released restorer
-# never saw in training (it was trained on rooms 11-13 and courtyard, models/README.md).
-# reconstruct trains sparse 3DGS on every 16th frame, renders the 135 held-out frames between
-# the training views, adapts the released checkpoint to the room (gaussvid adapt: internal
-# pairs from the room's own training views, fine-tuning, and a gate that keeps the renders
-# unless held-back pairs gain), and only where the gate opens restores them in 45 clips and
-# refines the 3DGS with the restored frames (a closed gate keeps the renders and the sparse
-# model, one line each: docs/RECONSTRUCT.md "Decisions"), scores all three against the
-# ground truth and writes flythrough.mp4, report.html and a viewer.html per model (docs/RECONSTRUCT.md). It ends with the table of sparse,
-# restored and refined PSNR / SSIM from metrics.json and where the files are. Running it
-# again skips the finished stages.
+# default scene, a procedural room (`scene synth --seed 1`: 160 frames of 256x144) that the
+# released restorer never saw in training (it was trained on rooms 11-13 and courtyard,
+# models/README.md). reconstruct trains sparse 3DGS on every 16th frame, renders the 135
+# held-out frames between the training views, adapts the released checkpoint to the room
+# (gaussvid adapt: internal pairs from the room's own training views, fine-tuning, and a gate
+# that keeps the renders unless held-back pairs gain), and only where the gate opens restores
+# them in 45 clips and refines the 3DGS with the restored frames (a closed gate keeps the
+# renders and the sparse model, one line each: docs/RECONSTRUCT.md "Decisions"); it scores
+# all three against the ground truth and writes flythrough.mp4, report.html and a viewer.html
+# per model (docs/RECONSTRUCT.md). It ends with the table of sparse, restored and refined
+# PSNR / SSIM from metrics.json and where the files are. Running it again skips the finished
+# stages.
 #
 # Why adaptation by default: on the seven unseen cells measured (docs/RESULTS.md "Issue 20:
 # every lever measured") the adapted path never lost (+0.00 where the gate closed, +1.35 dB
