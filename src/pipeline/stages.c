@@ -7,6 +7,7 @@
 
 #include "gaussvid/checkpoint.h"
 #include "gaussvid/core.h"
+#include "gaussvid/internal_pairs.h"
 #include "gaussvid/model_config.h"
 #include "gaussvid/report.h"
 #include "gaussvid/splat_train.h"
@@ -90,6 +91,16 @@ static int stage_index(const char *name)
     return -1;
 }
 
+/* 1 when the default path will adapt the checkpoint for some interval: a cross-scene
+ * checkpoint and an interval with the training views for it. */
+static int adapts_somewhere(const gv_reconstruct_options *o, const gv_scene *scene)
+{
+    if (o->restore_with != GV_RESTORE_ADAPTED || gv_scene_checkpoint_is(o->ckpt) != 0) return 0;
+    for (int k = 0; k < o->n_intervals; k++)
+        if (o->intervals[k] > 1 && gv_internal_check(scene->n_frames, o->intervals[k]) == 0) return 1;
+    return 0;
+}
+
 /* The checks that need no training: flags, the checkpoint and the images' size against the
  * restorer's grid (when restoring), ffmpeg when the video stage will run. */
 static int check_options(const gv_reconstruct_options *o, const gv_scene *scene, int last)
@@ -116,6 +127,15 @@ static int check_options(const gv_reconstruct_options *o, const gv_scene *scene,
             return gv_fail("%s: frame %d is %dx%d, frame 0 %dx%d: the restorer's clips need one size", scene->dir, i,
                            scene->cameras[i].width, scene->cameras[i].height, w, h);
     if (gv_checkpoint_read_info(o->ckpt, &cfg, &state)) return -1;
+    if (adapts_somewhere(o, scene)) {
+        gv_adapt_options a = o->adapt_options;
+        a.base = o->ckpt;
+        if (gv_adapt_check_base(&a)) {
+            char why[1024];
+            snprintf(why, sizeof why, "%s", gv_last_error());
+            return gv_fail("%s (the default path adapts it; --restore-with checkpoint restores with it as it is)", why);
+        }
+    }
     if (gv_model_cost_estimate(&cfg, 5, h, w, &cost))
         return gv_fail("%s: %dx%d images do not fit the restorer %s (%s): crop or scale them to multiples of %d "
                        "(scene info --downscale may help)", scene->dir, w, h, o->ckpt, cfg.name,

@@ -72,6 +72,11 @@ expect 2 "adapt and no restore" -- "$G" reconstruct "${RC0[@]}" --adapt --no-res
 one_line "--adapt and --no-restore: choose one"
 expect 1 "stop after restore without restoring" -- "$G" reconstruct "${RC0[@]}" --no-restore --stop-after restore --out X
 one_line "--stop-after restore: --no-restore has no restore stage"
+# The default path adapts the checkpoint: one it cannot adapt (another network than
+# --adapt-config, small by default) is refused before any training.
+expect 1 "a checkpoint the default path cannot adapt" -- "$G" reconstruct "${RC0[@]}" --out X
+one_line "base.safetensors: a checkpoint of another network (tiny1"
+check "the line names the way out" grep -qF -- "--restore-with checkpoint restores with it as it is" "$T/err"
 check "nothing written on bad input" test ! -e X
 
 # The presets: the first line names the preset and the settings it resulted in (printed
