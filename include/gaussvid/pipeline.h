@@ -61,6 +61,8 @@ typedef struct {
     int downscale;               /* scene images: 1, 2, 4, 8 */
     int iters;                   /* sparse 3DGS iterations */
     int densify;                 /* its density control (gv_splat_densify_mode) */
+    int regularize;              /* its sparse-view regularisers (GV_REGULARIZE_* bits; 0: plain
+                                  * 3DGS, the base "3dgs" of the paper's table) */
     int refine_iters;            /* refinement iterations */
     double refine_weight;        /* the restored frames' loss weight (training views: 1) */
     int restore_with;            /* gv_restore_with */

@@ -30,7 +30,7 @@ static int default_ckpt(char *path, size_t size)
 /* The flags a preset sets, as given on the command line (UNSET / NULL: not given). */
 #define UNSET INT_MIN
 typedef struct {
-    const char *preset, *densify, *restore_with;
+    const char *preset, *densify, *base, *restore_with;
     int iters, refine_iters, adapt_steps, adapt, no_restore;
 } explicit_flags;
 
@@ -49,6 +49,10 @@ static int apply_settings(const explicit_flags *x, gv_reconstruct_options *o)
     if (x->adapt) o->restore_with = GV_RESTORE_ADAPTED;
     if (x->densify && (o->densify = gv_splat_densify_mode_parse(x->densify)) < 0)
         return gv_fail("--densify %s: expected " GV_DENSIFY_MODE_NAMES, x->densify);
+    if (x->base && (o->regularize = !strcmp(x->base, "3dgs") ? 0 : gv_splat_regularize_parse(x->base)) <= 0 &&
+        strcmp(x->base, "3dgs"))
+        return gv_fail("--base %s: expected 3dgs, corgs, fsgs, dropgaussian or a comma-separated list of the last three",
+                       x->base);
     if (x->iters != UNSET) o->iters = x->iters;
     if (x->refine_iters != UNSET) o->refine_iters = x->refine_iters;
     if (x->adapt_steps != UNSET) {
@@ -71,8 +75,10 @@ static void print_settings(const gv_reconstruct_options *o)
         snprintf(restore, sizeof restore, "%s adapted to the scene (%ld steps) where it has the views for it, its gate "
                  "deciding restoration and refinement (%d iterations at weight %g)", o->ckpt,
                  (long)o->adapt_options.train.steps, o->refine_iters, o->refine_weight);
-    printf("reconstruct, preset %s: %d sparse iterations (%s density control), %s\n", o->preset, o->iters,
-           gv_splat_densify_mode_name(o->densify), restore);
+    char base[64] = "3dgs";
+    if (o->regularize) gv_splat_regularize_name(o->regularize, base, sizeof base);
+    printf("reconstruct, preset %s: %d sparse iterations (base %s, %s density control), %s\n", o->preset, o->iters,
+           base, gv_splat_densify_mode_name(o->densify), restore);
     fflush(stdout);
 }
 
@@ -89,7 +95,7 @@ int cmd_reconstruct(int argc, char **argv)
     o.ckpt = NULL;
     const char *intervals = NULL;
     int seed = 0;
-    explicit_flags x = {NULL, NULL, NULL, UNSET, UNSET, UNSET, 0, 0};
+    explicit_flags x = {NULL, NULL, NULL, NULL, UNSET, UNSET, UNSET, 0, 0};
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (images/ with sparse/0 or transforms.json; gaussvid scene colmap makes one from photos)", 1},
         {"interval", GV_FLAG_STRING, &intervals, "N[,N...|A:B:S]", "sparse views: frames 0, N, 2N, ... train, the held-out frames between them are restored (N >= 4); N = 1: every view trains and a smooth path between them is restored; a list or a range a:b:s runs each", 1},
@@ -100,7 +106,8 @@ int cmd_reconstruct(int argc, char **argv)
         {"no-restore", GV_FLAG_BOOL, &x.no_restore, NULL, "the sparse model, its renders, evaluation, video and report only (--restore-with none)", 0},
         {"adapt", GV_FLAG_BOOL, &x.adapt, NULL, "--restore-with adapted (the default; kept for older scripts)", 0},
         {"iters", GV_FLAG_INT, &x.iters, "N", "sparse 3DGS iterations (default 8000; preset fast 3000, best 15000)", 0},
-        {"densify", GV_FLAG_STRING, &x.densify, "MODE", "its density control: reference (default, the paper's), lean (twice as fast; preset fast) or mcmc", 0},
+        {"base", GV_FLAG_STRING, &x.base, "NAME", "the sparse model, named as the paper's Table 1 names its bases: 3dgs (default: plain 3DGS), corgs (CoR-GS: two fields co-pruned and pulled together at cameras between the views; preset best), fsgs (FSGS's unpooling, without its depth network), dropgaussian, or a comma-separated list of the last three (docs/SPLAT_TRAINING.md)", 0},
+        {"densify", GV_FLAG_STRING, &x.densify, "MODE", "its density control: lean (default: the reference's mean quality in half its time), reference (the paper's) or mcmc", 0},
         {"refine-iters", GV_FLAG_INT, &x.refine_iters, "N", "refinement iterations (default 1000)", 0},
         {"refine-weight", GV_FLAG_DOUBLE, &o.refine_weight, "W", "loss weight of the restored frames in the refinement, in (0, 1]; training views weigh 1 (default 0.3)", 0},
         {"adapt-steps", GV_FLAG_INT, &x.adapt_steps, "N", "the adaptation's fine-tuning steps (default 300)", 0},

@@ -102,6 +102,9 @@ static cJSON *inputs_json(const gv_reconstruct_options *o)
     cJSON_AddStringToObject(j, "preset", o->preset ? o->preset : "default");
     cJSON_AddNumberToObject(j, "iters", o->iters);
     cJSON_AddStringToObject(j, "densify", gv_splat_densify_mode_name(o->densify));
+    char regularize[64];
+    gv_splat_regularize_name(o->regularize, regularize, sizeof regularize);
+    cJSON_AddStringToObject(j, "regularize", regularize);
     cJSON_AddNumberToObject(j, "refine_iters", o->refine_iters);
     cJSON_AddNumberToObject(j, "refine_weight", o->refine_weight);
     cJSON_AddStringToObject(j, "checkpoint", o->ckpt);
@@ -329,6 +332,9 @@ int pipeline_stage_done(const pipeline_run *r, const char *name, const char *key
         /* Runs from before "densify" was an input trained with the reference's control. */
         if (was && cJSON_GetObjectItem(now, "densify") && !cJSON_GetObjectItem(was, "densify"))
             cJSON_AddStringToObject(was, "densify", gv_splat_densify_mode_name(GV_DENSIFY_REFERENCE));
+        /* ... and before "regularize" was, with none. */
+        if (was && cJSON_GetObjectItem(now, "regularize") && !cJSON_GetObjectItem(was, "regularize"))
+            cJSON_AddStringToObject(was, "regularize", "none");
         int same = was && cJSON_Compare(was, now, 1);
         if (!same) describe_difference(was, now, why, size);
         cJSON_Delete(now), cJSON_Delete(was);

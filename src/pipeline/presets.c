@@ -23,20 +23,20 @@ int gv_restore_with_parse(const char *name)
 
 typedef struct {
     const char *name;
-    int iters, densify, refine_iters, restore_with, adapt_steps;
+    int iters, densify, regularize, refine_iters, restore_with, adapt_steps;
 } preset;
 
 static const preset PRESETS[] = {
     /* fast: the lean density control (issue 21: the reference's mean held-out quality over 15
      * cells in about half the time), 3000 iterations (make run's count), and no restoration,
      * which on every unseen scene measured gained nothing where it was allowed to run. */
-    {"fast", 3000, GV_DENSIFY_LEAN, 1000, GV_RESTORE_NONE, 300},
-    /* default: the paper's 3DGS (reference control, 8000 iterations) and the gated path. */
-    {"default", 8000, GV_DENSIFY_DEFAULT, 1000, GV_RESTORE_ADAPTED, 300},
-    /* best: the reference's whole densification phase (it ends at 15000), the gated path.
-     * PLACE FOR THE REGULARISERS: when `splat train --regularize` (issue 38 section 1) lands
-     * with a measured default, best trains with it; add its field here. */
-    {"best", 15000, GV_DENSIFY_DEFAULT, 1000, GV_RESTORE_ADAPTED, 300},
+    {"fast", 3000, GV_DENSIFY_LEAN, 0, 1000, GV_RESTORE_NONE, 300},
+    /* default: 8000 iterations (the paper's early stop) with the lean control and the gated
+     * path. */
+    {"default", 8000, GV_DENSIFY_LEAN, 0, 1000, GV_RESTORE_ADAPTED, 300},
+    /* best: the reference's whole densification phase (it ends at 15000), CoR-GS's two fields
+     * (the paper's strongest base, 2-3x the time: docs/RESULTS.md, "Issue 38"), the gated path. */
+    {"best", 15000, GV_DENSIFY_LEAN, GV_REGULARIZE_CORGS, 1000, GV_RESTORE_ADAPTED, 300},
 };
 
 int gv_reconstruct_preset(const char *name, gv_reconstruct_options *o)
@@ -47,6 +47,7 @@ int gv_reconstruct_preset(const char *name, gv_reconstruct_options *o)
         o->preset = p->name;
         o->iters = p->iters;
         o->densify = p->densify;
+        o->regularize = p->regularize;
         o->refine_iters = p->refine_iters;
         o->restore_with = p->restore_with;
         o->adapt_options.train.steps = p->adapt_steps;

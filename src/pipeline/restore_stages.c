@@ -15,6 +15,7 @@
 #include "gaussvid/ply.h"
 #include "gaussvid/restore.h"
 #include "gaussvid/scene_adapt.h"
+#include "gaussvid/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 #define ADAPTED "restorer.safetensors" /* the scene checkpoint of --adapt, in DIR/nN */
@@ -56,7 +57,9 @@ int pipeline_adapt(pipeline_run *r)
     a.work_dir = NULL;
     a.downscale = r->opt->downscale;
     a.iters = r->opt->iters;
-    a.densify = r->opt->densify; /* the internal pairs' 3DGS as the sparse model's */
+    /* the internal pairs keep the paper's artifact simulation (plain 3DGS, the reference's
+     * density control), whatever model the user's sparse 3DGS is: the restorer learned on those */
+    a.densify = GV_DENSIFY_REFERENCE;
     gv_adapt_report rep;
     if (gv_adapt_scene(&a, &rep)) return -1;
     if (!rep.done) return gv_fail("%s: the adaptation stopped before its end", r->restorer);
@@ -179,10 +182,9 @@ int pipeline_restoration_decision(pipeline_run *r, int record, char *why, size_t
     return !closed;
 }
 
-int pipeline_copy_file(pipeline_run *r, const char *from, const char *to)
+/* Copies the file src to dst, atomically. */
+static int copy_path(const char *src, const char *dst)
 {
-    char src[4200], dst[4200];
-    if (pipeline_file(r, from, src, sizeof src) || pipeline_file(r, to, dst, sizeof dst)) return -1;
     char *data = NULL;
     size_t size = 0;
     if (gv_read_file(src, &data, &size)) return -1;
@@ -198,16 +200,23 @@ int pipeline_copy_file(pipeline_run *r, const char *from, const char *to)
     return rc;
 }
 
+int pipeline_copy_file(pipeline_run *r, const char *from, const char *to)
+{
+    char src[4200], dst[4200];
+    if (pipeline_file(r, from, src, sizeof src) || pipeline_file(r, to, dst, sizeof dst)) return -1;
+    return copy_path(src, dst);
+}
+
 int pipeline_copy_frames(pipeline_run *r, const char *from, const char *to)
 {
     char name[64], dir[4200];
     snprintf(name, sizeof name, "frames/%s", to);
     if (pipeline_file(r, name, dir, sizeof dir) || gv_mkdirs(dir)) return -1;
     for (int i = 0; i < r->n_frames; i++) {
-        char a[256], b[256];
-        pipeline_frame_relpath(r, from, r->frames[i].index, a, sizeof a);
-        pipeline_frame_relpath(r, to, r->frames[i].index, b, sizeof b);
-        if (pipeline_copy_file(r, a, b)) return -1;
+        char a[4200], b[4200];
+        if (pipeline_frame_path(r, from, r->frames[i].index, a, sizeof a) ||
+            pipeline_frame_path(r, to, r->frames[i].index, b, sizeof b) || copy_path(a, b))
+            return -1;
     }
     return 0;
 }

@@ -37,6 +37,7 @@ int pipeline_train(pipeline_run *r)
     gv_splat_train_defaults(&opt);
     opt.iterations = r->opt->iters;
     opt.densify_mode = (gv_splat_densify_mode)r->opt->densify;
+    opt.regularize = r->opt->regularize;
     opt.seed = r->opt->seed;
     char label[32];
     snprintf(label, sizeof label, "train n=%d", r->n);

@@ -30,7 +30,7 @@ typedef struct {
 } stage;
 
 static const stage STAGES[] = {
-    {"train", pipeline_train, always, "iters densify seed downscale", {"sparse.ply", "sparse.splat"}},
+    {"train", pipeline_train, always, "iters densify regularize seed downscale", {"sparse.ply", "sparse.splat"}},
     {"render", pipeline_render, always, "", {"frames/render"}},
     {"adapt", pipeline_adapt, adapting, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}},
     {"restore", pipeline_restore, restoring, "checkpoint restore_with seed", {"frames/restored"}},
@@ -53,7 +53,7 @@ void gv_reconstruct_defaults(gv_reconstruct_options *o)
     memset(o, 0, sizeof *o);
     o->downscale = 1;
     o->iters = 8000;
-    o->densify = GV_DENSIFY_DEFAULT;
+    o->densify = GV_DENSIFY_LEAN; /* the user's model (issue 38): the reference's quality, half its time */
     o->refine_iters = 1000;
     o->refine_weight = 0.3;
     o->restore_with = GV_RESTORE_ADAPTED;
