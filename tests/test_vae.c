@@ -49,7 +49,8 @@ static double max_abs(const float *a, int64_t n)
 /* ---- layout ---------------------------------------------------------------------------------- */
 static void test_layout(void)
 {
-    /* reference 4.1: encoder 53,596,928 + decoder 73,295,603 (docs/MODEL.md, test_model_weights) */
+    /* docs/reference/wan-vace-gaussvid.md 4.1: encoder 53,596,928 + decoder 73,295,603
+     * (docs/MODEL.md, test_model_weights) */
     const char *presets[] = {"wan2.1-vace-1.3b", "wan2.1-vace-14b", "small", "tiny"};
     for (int p = 0; p < 4; p++) {
         gv_model_config c;

@@ -1,5 +1,5 @@
 /* COLMAP sparse models (sparse/0/{cameras,images,points3D}.{bin,txt}), read and written in
- * both the binary and the text format (reference gaussian-splatting.md section 18.4).
+ * both the binary and the text format (docs/reference/gaussian-splatting.md section 18.4).
  *
  * What is kept: cameras (id, model, size, parameters), registered images (id, world-to-camera
  * quaternion w,x,y,z and translation, camera id, name) and 3D points (id, xyz, rgb, error).
@@ -16,7 +16,7 @@
 
 #include <stdint.h>
 
-/* COLMAP's model ids (src/colmap/sensor/models.h; reference 18.4). */
+/* COLMAP's model ids (src/colmap/sensor/models.h; docs/reference/gaussian-splatting.md 18.4). */
 enum {
     GV_COLMAP_SIMPLE_PINHOLE = 0,
     GV_COLMAP_PINHOLE = 1,

@@ -11,18 +11,18 @@
  * batch is 1 for the video model. The per-frame restorer (variant per_frame) sees each of the
  * three intermediate frames as its own 1-frame clip: batch 3, latent_frames 1.
  *
- * VACE context (reference 3.3, 3.5; paper 3.3): the control video is the input clip (clean
- * anchors, corrupted renders); M = 0 on the anchors of the config's anchors variant, 1
- * elsewhere; inactive = video (1 - M), reactive = video M, each VAE-encoded (normalised);
- * the mask pixel-unshuffled to the latent grid. So the reactive part of the intermediates is
- * the corrupted render, as in the authors' pipeline (reference 1.2 step 2). With the variant
- * coverage (model_config.h) and a clip that carries its coverage plane (dataset.h), M on an
- * intermediate is per pixel: 1 where neither anchor sees the pixel (complete it), 0 where one
- * does (the render agrees with what an anchor shows: keep it, as an anchor's pixel is kept);
- * a clip without the plane gets the per-frame M. An end frame that
- * is not an anchor of the variant (anchors first / none) is blanked (0 = mid-grey) in the
- * input clip, in z_corrupt and in the context: the ablation must not see its clean view.
- * Configs with text cross-attention take the model's text context [batch, text_len, text_dim]
+ * VACE context (docs/reference/wan-vace-gaussvid.md 3.3, 3.5; paper 3.3): the control video is the
+ * input clip (clean anchors, corrupted renders); M = 0 on the anchors of the config's anchors
+ * variant, 1 elsewhere; inactive = video (1 - M), reactive = video M, each VAE-encoded
+ * (normalised); the mask pixel-unshuffled to the latent grid. So the reactive part of the
+ * intermediates is the corrupted render, as in the authors' pipeline
+ * (docs/reference/wan-vace-gaussvid.md 1.2 step 2). With the variant coverage (model_config.h) and
+ * a clip that carries its coverage plane (dataset.h), M on an intermediate is per pixel: 1 where
+ * neither anchor sees the pixel (complete it), 0 where one does (the render agrees with what an
+ * anchor shows: keep it, as an anchor's pixel is kept); a clip without the plane gets the per-frame
+ * M. An end frame that is not an anchor of the variant (anchors first / none) is blanked (0 =
+ * mid-grey) in the input clip, in z_corrupt and in the context: the ablation must not see its clean
+ * view. Configs with text cross-attention take the model's text context [batch, text_len, text_dim]
  * (the prompt's, cached beside imported Wan weights; zeros for the small presets, which have
  * no prompts: gv_dit_text_input). */
 #ifndef GAUSSVID_CONDITION_H

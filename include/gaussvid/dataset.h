@@ -43,7 +43,7 @@ typedef struct {
  *             nearest free held-out frame, the lower one on a tie;
  *   random    three distinct held-out frames drawn uniformly from (s, e), sorted;
  *   released  s + 1, s + gap / 2 (rounded down), s + gap - 1: the authors' released test
- *             clips (reference wan-vace-gaussvid.md section 1.3), moved as uniform is. */
+ *             clips (docs/reference/wan-vace-gaussvid.md section 1.3), moved as uniform is. */
 typedef enum { GV_SAMPLING_UNIFORM, GV_SAMPLING_RANDOM, GV_SAMPLING_RELEASED } gv_clip_sampling;
 
 /* "uniform", "random" or "released". */

@@ -5,7 +5,7 @@
  * Parameters are built from the weight list of the config (weight_names.h), so every tensor
  * carries its checkpoint name and loading is a lookup by name. Layouts (batch first):
  *   latent   [B, in_dim, T, H, W]          noisy latent x_t (T, H, W latent frames and pixels)
- *   timestep B floats in [0, 1000]         (= sigma * 1000, reference 2.3)
+ *   timestep B floats in [0, 1000]         (sigma * 1000, docs/reference/wan-vace-gaussvid.md 2.3)
  *   text     [B, L, text_dim]              precomputed text context (cross_attn configs)
  *   vace     [B, vace_in_dim, T, H, W]     [z_inactive | z_reactive | mask] (vace.c)
  *   plucker  [B, 6, Tp, Hpx, Wpx]          packed ray field (plucker.h), [o x d (3), d (3)]
@@ -25,7 +25,8 @@ typedef struct {
     gv_tensor *lora_a, *lora_b;  /* [r, in], [out, r], or NULL */
 } gv_dit_linear;
 
-/* One Wan attention block (reference 2.5); VACE blocks add before_proj / after_proj. */
+/* One Wan attention block (docs/reference/wan-vace-gaussvid.md 2.5); VACE blocks add before_proj /
+ * after_proj. */
 typedef struct {
     gv_tensor *modulation;        /* [1, 6, D]: shift, scale, gate (attention), then FFN */
     gv_tensor *camera_modulation; /* [1, 6, D] the camera stream's own (docs/ARCHITECTURE.md 6.5), or NULL */
@@ -150,14 +151,14 @@ void gv_dit_camera_positions(int frames, int rows, int cols, int *pos);
 /* The camera encoder alone: x_c [B, N, D] from the packed ray field. */
 gv_tensor *gv_camera_encoder_forward(const gv_dit *m, gv_graph *g, gv_tensor *plucker);
 
-/* ---- VACE context (reference 3.3; docs/ARCHITECTURE.md 6.3) ------------------------------------------- */
+/* ---- VACE context (docs/reference/wan-vace-gaussvid.md 3.3; docs/ARCHITECTURE.md 6.3) ----- */
 /* The pixel mask M of each of `frames` frames for an anchors variant (0 = inactive anchor,
  * 1 = reactive): none: all 1; first: frame 0 is 0; both: frames 0 and frames-1 are 0. */
 int gv_vace_frame_mask(gv_anchors anchors, int frames, float *mask);
 /* The pixel mask M [frames, H, W] on the latent grid: [sf*sf, latent_frames, H/sf, W/sf],
  * an sf x sf pixel unshuffle (channel = sf * row offset + column offset) then the temporal
- * nearest-exact resize of reference 3.3 step 4: latent frame k takes pixel frame
- * min(floor((k + 0.5) frames / latent_frames), frames - 1). */
+ * nearest-exact resize of docs/reference/wan-vace-gaussvid.md 3.3 step 4: latent frame k takes
+ * pixel frame min(floor((k + 0.5) frames / latent_frames), frames - 1). */
 int gv_vace_mask_latent(const float *mask, int frames, int height, int width, int latent_frames,
                         int spatial_factor, float *out);
 /* Concatenates [z_inactive (z) | z_reactive (z) | mask (sf^2)] channels into vace [C, T, h, w]. */

@@ -1,5 +1,5 @@
 /* A set of 3D Gaussians in structure-of-arrays form, with the raw (pre-activation)
- * parameters of the reference 3DGS: positions, SH coefficients, opacity logits, log-scales
+ * parameters of the official 3DGS: positions, SH coefficients, opacity logits, log-scales
  * and unnormalised quaternions (w, x, y, z). */
 #ifndef GAUSSVID_GAUSSIANS_H
 #define GAUSSVID_GAUSSIANS_H

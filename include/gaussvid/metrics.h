@@ -1,7 +1,8 @@
-/* Image quality metrics as the reference 3DGS evaluation computes them (reference doc
- * section 19; docs/METRICS.md): PSNR over all values, and SSIM with the 11x11 Gaussian window
- * (sigma 1.5), zero padding of 5 ("same" size), per channel, C1 = 0.01^2, C2 = 0.03^2,
- * averaged over every pixel and channel. Images are float HWC in [0, 1]. */
+/* Image quality metrics as the official 3DGS evaluation computes them
+ * (docs/reference/gaussian-splatting.md section 19; docs/METRICS.md): PSNR over all values, and
+ * SSIM with the 11x11 Gaussian window (sigma 1.5), zero padding of 5 ("same" size), per channel,
+ * C1 = 0.01^2, C2 = 0.03^2, averaged over every pixel and channel. Images are float HWC in
+ * [0, 1]. */
 #ifndef GAUSSVID_METRICS_H
 #define GAUSSVID_METRICS_H
 

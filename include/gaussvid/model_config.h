@@ -1,7 +1,7 @@
 /* The configuration of a whole GaussVid restoration model: the Wan2.1 DiT with its VACE
  * context branch, the Wan2.1-family causal 3D VAE, the Plücker camera encoder, LoRA and the
  * ablation variants (docs/ARCHITECTURE.md section 6). The DiT and VAE fields carry the official Wan2.1
- * hyper-parameter names (reference wan-vace-gaussvid.md sections 2.1, 3.1, 4.1, including the
+ * hyper-parameter names (docs/reference/wan-vace-gaussvid.md sections 2.1, 3.1, 4.1, including the
  * official spelling "temperal_downsample"); the rest are this project's. Configs are JSON
  * files (docs/MODEL.md) or built-in presets: tiny, small, wan2.1-vace-1.3b, wan2.1-vace-14b. */
 #ifndef GAUSSVID_MODEL_CONFIG_H

@@ -25,7 +25,7 @@ typedef struct {
     char lora[GV_RELEASE_PATH_MAX];   /* the GaussVid checkpoint to fuse (release_lora.h), or "" */
 } gv_release_files;
 
-/* GaussVid's prompt (reference 1.2). */
+/* GaussVid's prompt (docs/reference/wan-vace-gaussvid.md 1.2). */
 #define GV_GAUSSVID_PROMPT "Remove degradation and restore clean video."
 
 /* Finds the files in dir; a missing DiT or VAE fails naming the folder and the file names

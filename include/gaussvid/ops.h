@@ -88,12 +88,13 @@ int gv_lora_merge(gv_tensor *w, const gv_tensor *a, const gv_tensor *b, float sc
 gv_tensor *gv_layer_norm(gv_graph *g, gv_tensor *x, gv_tensor *w, gv_tensor *b, float eps);
 /* RMSNorm over the last axis: x / sqrt(mean(x^2) + eps) * w; w [D] or NULL (Wan's q/k norm). */
 gv_tensor *gv_rms_norm(gv_graph *g, gv_tensor *x, gv_tensor *w, float eps);
-/* Wan VAE RMS_norm over one axis (reference section 4.2): x / max(||x||_2, floor) * sqrt(C)
- * * gamma, with gamma [C] or NULL; floor is 1e-12 in Wan. */
+/* Wan VAE RMS_norm over one axis (docs/reference/wan-vace-gaussvid.md section 4.2):
+ * x / max(||x||_2, floor) * sqrt(C) * gamma, with gamma [C] or NULL; floor is 1e-12 in Wan. */
 gv_tensor *gv_rms_norm_axis(gv_graph *g, gv_tensor *x, gv_tensor *gamma, int axis, float floor);
 
 /* ---- Activations (nn/ops_activation.c) -------------------------------------------------------- */
-/* 0.5 x (1 + tanh(sqrt(2/pi) (x + 0.044715 x^3))) (reference section 2.5). */
+/* 0.5 x (1 + tanh(sqrt(2/pi) (x + 0.044715 x^3)))
+ * (docs/reference/wan-vace-gaussvid.md section 2.5). */
 gv_tensor *gv_gelu(gv_graph *g, gv_tensor *x);
 gv_tensor *gv_silu(gv_graph *g, gv_tensor *x);    /* x * sigmoid(x) */
 gv_tensor *gv_sigmoid(gv_graph *g, gv_tensor *x);
@@ -110,14 +111,14 @@ gv_tensor *gv_attention(gv_graph *g, gv_tensor *q, gv_tensor *k, gv_tensor *v,
                         gv_tensor *mask, int n_heads, float scale);
 
 /* ---- Rotary position embedding (nn/ops_rope.c) ----------------------------------------------- */
-/* Wan2.1's 3D RoPE table (reference section 2.6) for N tokens at integer positions
- * pos[3*i+0..2] = (frame, row, column): per head, head_dim/2 adjacent (real, imag) pairs,
+/* Wan2.1's 3D RoPE table (docs/reference/wan-vace-gaussvid.md section 2.6) for N tokens at integer
+ * positions pos[3*i+0..2] = (frame, row, column): per head, head_dim/2 adjacent (real, imag) pairs,
  * split frame / height / width as head_dim - 4*(head_dim/6), 2*(head_dim/6), 2*(head_dim/6)
  * dimensions, each axis with frequencies 10000^(-2j/axis_dim). Shape [N, head_dim/2, 2]
  * holding (cos, sin), computed in double. */
 gv_tensor *gv_rope3d_table(gv_graph *g, const int *pos, int n_tokens, int head_dim);
 /* The table for a frames x rows x cols grid in token order frame-major, then row, then
- * column (reference section 2.2). */
+ * column (docs/reference/wan-vace-gaussvid.md section 2.2). */
 gv_tensor *gv_rope3d_table_grid(gv_graph *g, int frames, int rows, int cols, int head_dim);
 /* Rotates every head of x [..., N, H*head_dim] by the table [N, head_dim/2, 2]. */
 gv_tensor *gv_rope(gv_graph *g, gv_tensor *x, gv_tensor *table, int n_heads);
@@ -154,8 +155,8 @@ gv_tensor *gv_pixel_shuffle(gv_graph *g, gv_tensor *x, int rt, int rh, int rw);
 gv_tensor *gv_upsample_nearest(gv_graph *g, gv_tensor *x, int ft, int fh, int fw);
 
 /* ---- Embeddings (nn/ops_embed.c) ------------------------------------------------------------- */
-/* Wan's sinusoidal timestep embedding (reference section 2.3): [n, dim] with
- * [cos(t w_0..), sin(t w_0..)], w_i = 10000^(-i/(dim/2)), computed in double; a leaf. */
+/* Wan's sinusoidal timestep embedding (docs/reference/wan-vace-gaussvid.md section 2.3): [n, dim]
+ * with [cos(t w_0..), sin(t w_0..)], w_i = 10000^(-i/(dim/2)), computed in double; a leaf. */
 gv_tensor *gv_timestep_embedding(gv_graph *g, const float *t, int n, int dim);
 
 /* ---- Losses (nn/ops_loss.c) ------------------------------------------------------------------ */

@@ -3,7 +3,8 @@
  * poses expressed in the first anchor camera's frame and translations divided by a per-clip
  * length (gv_plucker_scale), then packed in time as the VAE packs frames, so that the camera
  * encoder's Conv3D yields one token per video token. Channel order [m (3), d (3)] as the
- * authors' code (reference 1.4, 6.1). Cameras are OpenCV world-to-camera (camera.h). */
+ * authors' code (docs/reference/wan-vace-gaussvid.md 1.4, 6.1). Cameras are OpenCV world-to-camera
+ * (camera.h). */
 #ifndef GAUSSVID_PLUCKER_H
 #define GAUSSVID_PLUCKER_H
 

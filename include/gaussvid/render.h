@@ -66,7 +66,7 @@ int gv_splat_render_forward_scaled(gv_splat_renderer *r, const gv_gaussians *g,
  * active degree), opacity logits (through the last forward's opacity scale), log-scales and
  * raw quaternions; rows of Gaussians not visible are left untouched. densify_grad (may be NULL) receives, for the visible
  * Gaussians, the 3DGS densification statistic of this view: the norm of dL/d means2d in
- * NDC units, |(dL/dx * W/2, dL/dy * H/2)| (reference doc section 14.1). */
+ * NDC units, |(dL/dx * W/2, dL/dy * H/2)| (docs/reference/gaussian-splatting.md section 14.1). */
 int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
                              const float *d_image, gv_gaussians *grad, float *densify_grad);
 /* Expected depth (view z, 0 where nothing blends) and accumulated opacity 1 - T_final of

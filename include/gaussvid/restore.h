@@ -9,15 +9,17 @@
  *   iterate   the one-step restoration repeated on its own output at the decreasing times
  *             sigma_0 = t0 > sigma_1 > ... > sigma_{steps-1} (fresh noise each time)
  *   euler     the reference's ODE sampler: x = (1 - t0) z-hat + t0 eps, then
- *             x += v(x, sigma_k) (sigma_{k+1} - sigma_k) down to sigma_steps = 0 (reference 5.3)
+ *             x += v(x, sigma_k) (sigma_{k+1} - sigma_k) down to sigma_steps = 0
+ *             (docs/reference/wan-vace-gaussvid.md 5.3)
  *   identity  z = z-hat (the network is not run: the baseline through the same pipeline)
  * "released" is euler as the authors' inference runs it: strength 0.2, shift 5, 10 steps, so
- * t0 = 0.5556 (reference 1.2, 5.4), on their float32 sigma table with the DiT's time embedding
- * of bf16 timesteps, and (in restore and eval) their tiled VAE and truncating 8-bit output
- * (docs/GAUSSVID_RELEASE.md). Time grids: sigma_k = shift(u (1 - k / steps)) with u the
- * unshifted start, shift(u) = t0. Every evaluation of onestep and iterate averages `samples`
- * noise draws. The noise of step k, draw j is N(0, 1) at Philox position (k samples + j) n of
- * the clip's stream gv_restore_clip_seed(seed, clip name), so results are reproducible.
+ * t0 = 0.5556 (docs/reference/wan-vace-gaussvid.md 1.2, 5.4), on their float32 sigma table with
+ * the DiT's time embedding of bf16 timesteps, and (in restore and eval) their tiled VAE and
+ * truncating 8-bit output (docs/GAUSSVID_RELEASE.md). Time grids:
+ * sigma_k = shift(u (1 - k / steps)) with u the unshifted start, shift(u) = t0. Every
+ * evaluation of onestep and iterate averages `samples` noise draws. The noise of step k,
+ * draw j is N(0, 1) at Philox position (k samples + j) n of the clip's stream
+ * gv_restore_clip_seed(seed, clip name), so results are reproducible.
  *
  * Composition of the restored clip (8-bit frames): the anchors are the input's; the three
  * intermediates are either the decoded restored latent (decoded) or render + D(z) - D(z-hat)

@@ -1,6 +1,6 @@
-/* The 3D Gaussian Splatting rendering kernels on the CPU (reference doc sections 2-10;
- * docs/SPLAT.md): projection, SH colour, tile binning and rasterisation, each with its
- * forward and backward, and a plain double-precision reference renderer for the tests.
+/* The 3D Gaussian Splatting rendering kernels on the CPU (docs/reference/gaussian-splatting.md
+ * sections 2-10; docs/SPLAT.md): projection, SH colour, tile binning and rasterisation, each with
+ * its forward and backward, and a plain double-precision reference renderer for the tests.
  *
  * Conventions. Camera axes OpenCV (x right, y down, z forward), world-to-camera R, t.
  * Pixel coordinates are continuous: pixel (i, j) has its centre at (i + 0.5, j + 0.5) and a

@@ -1,5 +1,5 @@
-/* Training 3D Gaussian Splatting from the views of a scene, as the reference 3DGS does
- * (reference doc gaussian-splatting.md sections 3, 12-14; docs/SPLAT_TRAINING.md):
+/* Training 3D Gaussian Splatting from the views of a scene, as the official 3DGS does
+ * (docs/reference/gaussian-splatting.md sections 3, 12-14; docs/SPLAT_TRAINING.md):
  * initialisation from the sparse points, Adam with the reference learning rates, adaptive
  * density control (clone, split, prune, opacity reset), the training loop, and evaluation
  * of a model on a scene's views. Rendering itself is in render.h. */
@@ -62,7 +62,7 @@ typedef struct {
     gv_gaussians m, v;           /* first and second moments, rows parallel to the model */
 } gv_splat_adam;
 
-/* The reference 3DGS values (section 13.1, the 2023 release: opacity 0.05). */
+/* The official 3DGS values (section 13.1, the 2023 release: opacity 0.05). */
 void gv_splat_adam_defaults(gv_splat_adam_config *c);
 /* get_expon_lr_func without delay: exp((1 - t) ln lr_init + t ln lr_final), t =
  * clamp(step / max_steps, 0, 1); 0 when both rates are 0. */
@@ -260,7 +260,7 @@ typedef struct {
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
-    double initial_opacity;     /* 0: the mode's own (reference 0.1, MCMC 0.5) */
+    double initial_opacity;     /* 0: the mode's own (lean and reference: 0.1, MCMC: 0.5) */
     const char *progress_label; /* NULL: no progress bar */
     /* Refinement (docs/RECONSTRUCT.md): training continues from a copy of this model at its
      * full SH degree instead of starting from the points (NULL: from the points). Borrowed. */
@@ -306,7 +306,7 @@ typedef struct {
 /* The reference's values (sections 13-14) and the values above. */
 void gv_splat_train_defaults(gv_splat_train_options *opt);
 /* The gradient threshold a run uses: densify.grad_threshold when set, else the mode's own
- * (lean 0.0004, reference 0.0002; MCMC does not use it). */
+ * (lean: 0.0004, reference: 0.0002; MCMC does not use it). */
 double gv_splat_densify_threshold(const gv_splat_train_options *opt);
 /* Sets up training on n_views cameras and their RGB images (kept by the caller until
  * gv_splat_trainer_free), initialised from the points (random points when n_points is 0).

@@ -13,10 +13,11 @@
 #include "gaussvid/nn.h"
 #include "gaussvid/vae.h"
 
-/* ---- flow matching (train/flow.c; reference wan-vace-gaussvid.md section 5) -------------- */
+/* ---- flow matching (train/flow.c; docs/reference/wan-vace-gaussvid.md section 5) ----- */
 #define GV_FLOW_GRID 1000        /* training timesteps of the reference scheduler (5.5) */
 
-/* sigma' = s sigma / (1 + (s - 1) sigma), the scheduler's shift (reference 5.1). */
+/* sigma' = s sigma / (1 + (s - 1) sigma), the scheduler's shift
+ * (docs/reference/wan-vace-gaussvid.md 5.1). */
 double gv_flow_shift(double sigma, double shift);
 /* x_t = (1 - t) start + t eps over n values: start = z0 in pretraining, z-hat in fine-tuning
  * (paper eq. 6). */
@@ -134,7 +135,8 @@ typedef struct {
     uint64_t seed;
     long checkpoint_every;       /* steps between resumable checkpoints (out + ".ckpt") */
     int resume;                  /* continue from out + ".ckpt" when it exists */
-    double shift;                /* pretraining: the timestep grid's shift (reference 5.5: 5) */
+    double shift;                /* pretraining: the timestep grid's shift
+                                    (docs/reference/wan-vace-gaussvid.md 5.5: 5) */
     double render_context;       /* pretraining: share of samples whose context keeps the renders (0: none) */
     int crop_h, crop_w;          /* each sample a random window of this many tokens (0: the whole grid in that axis) */
     double t_max;                /* fine-tuning: t ~ U[0, t_max] (paper: 0.48) */

@@ -1,4 +1,4 @@
-/* transforms.json scene descriptions (reference gaussian-splatting.md 18.5), read in the
+/* transforms.json scene descriptions (docs/reference/gaussian-splatting.md 18.5), read in the
  * nerfstudio / instant-ngp and the NeRF-synthetic (Blender) conventions, written in the
  * nerfstudio convention. Poses in the file are camera-to-world in OpenGL camera axes
  * (x right, y up, looking along -z); they are converted to the library's OpenCV

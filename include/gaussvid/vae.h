@@ -1,5 +1,5 @@
 /* The causal 3D VAE of the restoration network: Wan2.1's VAE family at any size
- * (docs/ARCHITECTURE.md 6.2; reference wan-vace-gaussvid.md section 4; docs/VAE.md).
+ * (docs/ARCHITECTURE.md 6.2; docs/reference/wan-vace-gaussvid.md section 4; docs/VAE.md).
  *
  * Videos are channel-first float tensors [B, 3, T, H, W] with values in [-1, 1] (pixel p in
  * 0..255 is p / 127.5 - 1). T = 1 + k r frames (r = the temporal factor, 4 in Wan, 1 or 4 in
@@ -31,7 +31,8 @@ typedef enum {
     GV_VAE_RESIDUAL, GV_VAE_ATTENTION, GV_VAE_DOWN2D, GV_VAE_DOWN3D, GV_VAE_UP2D, GV_VAE_UP3D
 } gv_vae_layer_kind;
 
-/* One entry of encoder.downsamples / decoder.upsamples / *.middle (reference 4.2). */
+/* One entry of encoder.downsamples / decoder.upsamples / *.middle
+ * (docs/reference/wan-vace-gaussvid.md 4.2). */
 typedef struct {
     gv_vae_layer_kind kind;
     int in, out;                       /* channels */
@@ -112,8 +113,9 @@ int gv_vae_file_config(const char *path, gv_model_config *c);
 int gv_vae_set_stats(gv_vae *v, const double *mean, const double *std);
 
 /* ---- streaming state of the causal caches (model/vae_blocks.c) -------------------------- */
-/* Per cache slot: whether it has seen a chunk, and the last frames it keeps (reference 4.4:
- * 2 input frames of a k_t = 3 conv; 1 frame of a downsample3d; the up3d's 2 input frames). */
+/* Per cache slot: whether it has seen a chunk, and the last frames it keeps
+ * (docs/reference/wan-vace-gaussvid.md 4.4: 2 input frames of a k_t = 3 conv; 1 frame of a
+ * downsample3d; the up3d's 2 input frames). */
 typedef struct {
     int n_slots;
     int *started, *frames;             /* frames held per slot: 0..2 */
@@ -131,7 +133,8 @@ gv_tensor *gv_vae_encoder_forward(gv_graph *g, gv_vae *v, gv_tensor *x, gv_vae_s
 /* conv2 + Decoder3d on a latent mean [B, z, T', h, w] (not normalised): the video
  * [B, 3, 1 + r (T' - 1), s h, s w], not clamped. stream as above. */
 gv_tensor *gv_vae_decoder_forward(gv_graph *g, gv_vae *v, gv_tensor *mu, gv_vae_stream *stream);
-/* z = (mu - mean_c) / std_c and its inverse (reference 4.5); fail without statistics. */
+/* z = (mu - mean_c) / std_c and its inverse (docs/reference/wan-vace-gaussvid.md 4.5); fail without
+ * statistics. */
 gv_tensor *gv_vae_normalize(gv_graph *g, const gv_vae *v, gv_tensor *mu);
 gv_tensor *gv_vae_denormalize(gv_graph *g, const gv_vae *v, gv_tensor *z);
 
@@ -171,7 +174,8 @@ int gv_vae_decode_residual(gv_vae *v, const float *render, const float *z_render
 /* out = clamp(render + restored - rendered, -1, 1) over n values (the step above). */
 void gv_vae_compose_residual(const float *render, const float *restored, const float *rendered, int64_t n, float *out);
 
-/* ---- the VACE context of a clip (model/vace_context.c; reference 3.3; docs/ARCHITECTURE.md 6.3) */
+/* ---- the VACE context of a clip (model/vace_context.c; docs/ARCHITECTURE.md 6.3;
+ * docs/reference/wan-vace-gaussvid.md 3.3) */
 /* [E(V (1 - M)) | E(V M) | M on the latent grid] for video V [3, T, H, W] in [-1, 1] and the
  * anchors variant's mask M (gv_vace_frame_mask: 0 on anchors, 1 on frames to restore):
  * out [2 z + s^2, T', H/s, W/s] (dit.h: the `vace` input). Latents are normalised when the

@@ -27,8 +27,8 @@ typedef struct {
 int gv_vae_frames_load(gv_vae_frames *f, const char *const *dirs, int n_dirs, int downscale);
 void gv_vae_frames_free(gv_vae_frames *f);
 /* Frames t0, t0 + stride, ..., t0 + (T - 1) stride of s, the w x h window at (x0, y0),
- * mirrored left-right when flip, into out [3, T, h, w] as p / 127.5 - 1 (reference 4.5).
- * The caller keeps every index inside the scene. */
+ * mirrored left-right when flip, into out [3, T, h, w] as p / 127.5 - 1
+ * (docs/reference/wan-vace-gaussvid.md 4.5). The caller keeps every index inside the scene. */
 void gv_vae_clip_extract(const gv_vae_scene *s, int t0, int stride, int T, int x0, int y0, int w,
                          int h, int flip, float *out);
 

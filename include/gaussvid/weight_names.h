@@ -1,6 +1,6 @@
 /* Every parameter tensor a model config implies, by name and shape, and the check of
  * safetensors files against them. For the Wan presets the names and shapes are exactly the
- * keys of the published checkpoints (reference wan-vace-gaussvid.md sections 2.8, 3.1, 4.3):
+ * keys of the published checkpoints (docs/reference/wan-vace-gaussvid.md sections 2.8, 3.1, 4.3):
  * DiT + VACE in one file family, the VAE in another. tiny and small use the same scheme at
  * their sizes, so loading any size is a name lookup. This project's own tensors (camera
  * encoder, per-block camera modulation, LoRA) are named in docs/MODEL.md. */
@@ -45,8 +45,8 @@ enum {
 /* How a tensor starts when it is not loaded, where the specification fixes it. */
 typedef enum {
     GV_INIT_RANDOM,    /* the network's choice (fan-in scaled) */
-    GV_INIT_ZEROS,     /* VACE before/after_proj (reference 3.1), lora_B, the camera encoder's
-                          last projection (paper eq. 3), biases of those */
+    GV_INIT_ZEROS,     /* VACE before/after_proj (docs/reference/wan-vace-gaussvid.md 3.1), lora_B,
+                          the camera encoder's last projection (paper eq. 3), biases of those */
     GV_INIT_ONES,      /* norm gains */
     GV_INIT_CONSTANT   /* camera_encoder.gamma = camera.gamma_init */
 } gv_weight_init;

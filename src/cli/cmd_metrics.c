@@ -1,5 +1,5 @@
 /* gaussvid metrics A B [--json] [--lpips WEIGHTS]: PSNR and SSIM of two images as the
- * reference 3DGS evaluation computes them (docs/METRICS.md), and LPIPS when its AlexNet
+ * official 3DGS evaluation computes them (docs/METRICS.md), and LPIPS when its AlexNet
  * weights are given (docs/LPIPS.md). `gaussvid metrics consistency DIR` is
  * cmd_metrics_consistency.c. */
 #include <string.h>

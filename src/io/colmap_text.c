@@ -1,4 +1,4 @@
-/* COLMAP text model files (reference gaussian-splatting.md 18.4); '#' lines are comments:
+/* COLMAP text model files (docs/reference/gaussian-splatting.md 18.4); '#' lines are comments:
  *   cameras.txt   CAMERA_ID MODEL WIDTH HEIGHT PARAMS...
  *   images.txt    IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME, then one line of
  *                 (X Y POINT3D_ID) triples, which may be empty

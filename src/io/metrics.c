@@ -1,4 +1,5 @@
-/* PSNR (reference doc 19.1) and the PSNR/SSIM pair of two 8-bit images. SSIM is in ssim.c. */
+/* PSNR (docs/reference/gaussian-splatting.md 19.1) and the PSNR/SSIM pair of two 8-bit images. SSIM
+ * is in ssim.c. */
 #include "gaussvid/metrics.h"
 #include "gaussvid/core.h"
 

@@ -1,5 +1,5 @@
 /* transforms.json reader (nerfstudio / instant-ngp / NeRF-synthetic) and writer (nerfstudio);
- * conventions in include/gaussvid/transforms.h and reference gaussian-splatting.md 18.5. */
+ * conventions in include/gaussvid/transforms.h and docs/reference/gaussian-splatting.md 18.5. */
 #include "gaussvid/transforms.h"
 
 #include <cjson/cJSON.h>
@@ -53,7 +53,7 @@ static int missing_key(reader_ctx *c, const char *key)
 }
 
 /* Width and height of the first frame's image that needs them, read once (NeRF-synthetic
- * files give no size: reference 18.5 takes it from the image). */
+ * files give no size: docs/reference/gaussian-splatting.md 18.5 takes it from the image). */
 static int image_size(reader_ctx *c, const char *name, int *w, int *h)
 {
     if (!c->image_w) {

@@ -1,6 +1,6 @@
 /* The Plücker token encoder (paper 3.3.1, eq. 1-3; docs/ARCHITECTURE.md 6.4; the authors' encoders in
- * reference 1.4). Its Conv3D kernel and stride are VAE factor x DiT patch in every axis, so it
- * gives one token per video token.
+ * docs/reference/wan-vace-gaussvid.md 1.4). Its Conv3D kernel and stride are VAE factor x DiT patch
+ * in every axis, so it gives one token per video token.
  *   decomposed: F_m = Conv3D_m(m), F_d = Conv3D_d(d); F^_m = F_m sigma(g_d->m(F_d)),
  *               F^_d = F_d sigma(g_m->d(F_m)); g = Linear, SiLU, Linear
  *   monolithic / early: F = Conv3D(m, d) (2C channels); F + MLP(F) (Linear, SiLU, Linear)

@@ -1,6 +1,7 @@
 /* The DiT's text context of a prompt (umt5.h): Wan's T5EncoderModel tokenizes the prompt
  * (padding to text_len, keys of the padding masked), encodes it, and keeps the rows of the
- * real tokens; the DiT then pads them with zero rows to text_len (reference 2.4). */
+ * real tokens; the DiT then pads them with zero rows to text_len
+ * (docs/reference/wan-vace-gaussvid.md 2.4). */
 #include <stdlib.h>
 #include <string.h>
 

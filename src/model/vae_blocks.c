@@ -1,4 +1,5 @@
-/* The VAE's building blocks (reference 4.2) and their causal caches (reference 4.4).
+/* The VAE's building blocks (docs/reference/wan-vace-gaussvid.md 4.2) and their causal caches
+ * (docs/reference/wan-vace-gaussvid.md 4.4).
  *
  * Every block works on videos [B, C, T, H, W]. A stream carries, per cache slot, what a block
  * keeps from one chunk for the next: a k_t = 3 convolution its last 2 input frames (zeros

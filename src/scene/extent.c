@@ -1,4 +1,4 @@
-/* Camera centres and the 3DGS scene extent (reference gaussian-splatting.md 12.1,
+/* Camera centres and the 3DGS scene extent (docs/reference/gaussian-splatting.md 12.1,
  * getNerfppNorm): radius = 1.1 x the largest distance of a camera centre from their mean. */
 #include <math.h>
 

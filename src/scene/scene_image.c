@@ -6,7 +6,8 @@
 #include "gaussvid/scene.h"
 
 /* RGB from grey+alpha or RGBA: v * a + background * (1 - a), rounded to nearest, as 3DGS
- * composites RGBA images (reference 18.5) on its black or white background. */
+ * composites RGBA images (docs/reference/gaussian-splatting.md 18.5) on its black or white
+ * background. */
 static int composite(const gv_image *in, int background, gv_image *out)
 {
     if (gv_image_alloc(out, in->width, in->height, 3) != 0) return -1;

@@ -1,6 +1,6 @@
 /* Tile binning: which 16x16 tiles each visible Gaussian touches, and per-tile lists sorted
- * front to back (reference doc sections 6.2 and 7; [RAST] auxiliary.h getRect,
- * rasterizer_impl.cu duplicateWithKeys / identifyTileRanges).
+ * front to back (docs/reference/gaussian-splatting.md sections 6.2 and 7; [RAST] auxiliary.h
+ * getRect, rasterizer_impl.cu duplicateWithKeys / identifyTileRanges).
  *
  * The reference sorts (tile << 32 | depth bits) keys with a stable radix sort of the
  * Gaussians in index order, so each tile's list is ordered by (depth, index). Here the

@@ -1,7 +1,7 @@
-/* Adaptive density control of 3DGS (reference doc sections 14.1-14.3; gaussian_model.py
- * add_densification_stats, densify_and_clone, densify_and_split, densify_and_prune,
- * reset_opacity). The rows of the Adam moments move with the rows of the model: copies and
- * children start with zero moments (cat_tensors_to_optimizer), removed rows take theirs
+/* Adaptive density control of 3DGS (docs/reference/gaussian-splatting.md sections 14.1-14.3;
+ * gaussian_model.py add_densification_stats, densify_and_clone, densify_and_split,
+ * densify_and_prune, reset_opacity). The rows of the Adam moments move with the rows of the model:
+ * copies and children start with zero moments (cat_tensors_to_optimizer), removed rows take theirs
  * away (_prune_optimizer), and the step counts are kept. */
 #include <math.h>
 #include <stdlib.h>

@@ -1,5 +1,6 @@
 /* Initial Gaussians from a point cloud, or from random points when a scene has none
- * (reference doc section 3; 3DGS gaussian_model.py create_from_pcd, dataset_readers.py). */
+ * (docs/reference/gaussian-splatting.md section 3; 3DGS gaussian_model.py create_from_pcd,
+ * dataset_readers.py). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>

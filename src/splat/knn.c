@@ -1,4 +1,5 @@
-/* Exact k-nearest-neighbour distances for the initial scales (reference doc section 3.1).
+/* Exact k-nearest-neighbour distances for the initial scales
+ * (docs/reference/gaussian-splatting.md section 3.1).
  *
  * 3DGS uses simple-knn's distCUDA2, an approximate search over Morton-sorted boxes; gsplat
  * uses an exact search. This is exact: an implicit kd-tree over an index array (the median

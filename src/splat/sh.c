@@ -1,5 +1,5 @@
 /* View-dependent colour from real spherical harmonics up to degree 3, and its backward
- * (reference doc sections 8 and 10.5; [RAST] computeColorFromSH). */
+ * (docs/reference/gaussian-splatting.md sections 8 and 10.5; [RAST] computeColorFromSH). */
 #include <math.h>
 #include <string.h>
 

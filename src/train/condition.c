@@ -141,7 +141,8 @@ int gv_condition_vace_mask(const gv_model_config *cfg, const gv_clip *clip, floa
 }
 
 /* The video model: one 5-frame clip, batch 1. The VACE context is built from the input clip
- * after blanking (condition.h) by gv_vace_context_build_masked (reference 3.3 steps 2-5). */
+ * after blanking (condition.h) by gv_vace_context_build_masked (docs/reference/wan-vace-gaussvid.md
+ * 3.3 steps 2-5). */
 static int prepare_clip(gv_vae *vae, const gv_model_config *cfg, const gv_clip *clip, gv_clip_latents *l)
 {
     const gv_clip_info *info = &clip->info;
