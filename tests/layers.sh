@@ -8,11 +8,13 @@
 # Usage: bash tests/layers.sh SOURCE_DIR
 LAYERS='
 core    : -           : core camera dist
-io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files npy json
-scene   : io          : scene synth reproject scene_colmap
+io      : core        : image metrics gaussians ply colmap transforms safetensors npy json
+pth     : io          : weight_files
+scene   : io          : scene reproject scene_colmap
+synth   : scene       : synth
 splat   : scene       : splat splat_train render coverage
 nn      : core        : tensor ops optim nn
-model   : io nn       : model_config dit vae plucker plucker_official weight_names umt5 release_lora
+model   : pth nn      : model_config dit vae plucker plucker_official weight_names umt5 release_lora
 data    : splat       : dataset internal_pairs
 train   : model data  : train condition checkpoint vae_train model_import scene_adapt
 restore : train       : restore adapt
@@ -20,7 +22,7 @@ eval    : restore     : eval lpips consistency
 report  : scene       : report
 pipeline: eval report : pipeline
 bench   : restore     : -
-cli     : pipeline bench : -
+cli     : pipeline bench synth : -
 '
 cd "${1:?usage: bash tests/layers.sh SOURCE_DIR}" || exit 1
 declare -A below owner allowed

@@ -14,8 +14,8 @@
 #include "gaussvid/core.h"
 #include "gaussvid/safetensors.h"
 #include "gaussvid/weight_files.h"
-#include "io/pickle_internal.h"
-#include "io/zip_internal.h"
+#include "pth/pickle_internal.h"
+#include "pth/zip_internal.h"
 
 static const char *tmp;
 

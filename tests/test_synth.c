@@ -14,7 +14,7 @@
 #include "gaussvid/image.h"
 #include "gaussvid/scene.h"
 #include "gaussvid/synth.h"
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 static sy_prim make_prim(sy_shape shape, sy_vec center, sy_vec half, double yaw)
 {

@@ -76,6 +76,12 @@ uint16_t gv_f32_to_bf16(float x);
 /* Maps and checks a file: header length, JSON, dtypes, shapes, offsets (contiguous, no
  * overlap, no hole, covering the data exactly), unique names, string metadata. */
 int gv_st_open(gv_st_file *f, const char *path);
+/* Opens the shards of a sharded checkpoint's "*.safetensors.index.json" (its "weight_map"
+ * names the shard of every tensor; relative to the index's folder) as one file: every tensor
+ * of the weight map must be in the shard it names, and every tensor of a shard in the map
+ * under that shard. Metadata: the shards' "__metadata__", the first shard's value winning.
+ * docs/SAFETENSORS.md ("Sharded checkpoints"). */
+int gv_st_index_open(gv_st_file *f, const char *path);
 /* Hands every byte of an open file, in order, to each(ctx, bytes, n) in pieces of at most
  * GV_ST_STREAM_PIECE bytes read through its mapping; each piece's pages are released after it
  * (the resident memory stays one piece whatever the file's size). Stops at the first nonzero

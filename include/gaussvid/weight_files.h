@@ -7,19 +7,18 @@
  *   - a PyTorch zip checkpoint (.pth/.pt, torch.save since PyTorch 1.6): its data.pkl is read
  *     by a small bounded unpickler that accepts only what a state dict needs and executes
  *     nothing, and its tensors point into the mapped data/N storages.
- * docs/SAFETENSORS.md ("Sharded checkpoints") and docs/PTH.md. Close with gv_st_close. */
+ * docs/SAFETENSORS.md ("Sharded checkpoints") and docs/PTH.md. Close with gv_st_close.
+ * The PyTorch reader and this opener are the module src/pth/ (above io, whose safetensors
+ * reader they build on). */
 #ifndef GAUSSVID_WEIGHT_FILES_H
 #define GAUSSVID_WEIGHT_FILES_H
 
 #include "gaussvid/safetensors.h"
 
 /* Opens any of the three, told apart by their first bytes (a zip starts "PK\3\4", an index
- * with "{", a safetensors file with its 8-byte header length, which is never either). */
+ * with "{", a safetensors file with its 8-byte header length, which is never either); the
+ * index is opened by gv_st_index_open (safetensors.h). */
 int gv_weights_open(gv_st_file *f, const char *path);
-/* Opens the shards an index names (relative to the index's folder) as one file: every tensor
- * of the weight map must be in the shard it names, and every tensor of a shard in the map
- * under that shard. Metadata: the shards' "__metadata__", the first shard's value winning. */
-int gv_st_index_open(gv_st_file *f, const char *path);
 /* Opens a PyTorch zip checkpoint holding a state dict (a dict or OrderedDict of tensor name
  * to tensor). Tensors keep their storage's dtype (F32, F16, BF16, F64, integer types);
  * header_size is the pickle's size and data_size the storages'. */

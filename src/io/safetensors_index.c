@@ -11,7 +11,7 @@
 #include <sys/stat.h>
 
 #include "gaussvid/core.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/safetensors.h"
 #include "io/safetensors_internal.h"
 
 /* An index lists names and file names only: 14B's is about 100 KB. */

@@ -2,7 +2,7 @@
  * scenes: boxes (rotated about +z), spheres and capped vertical cylinders. Each works in
  * its own frame (translated to the centre, rotated by -yaw), where the tests are the
  * textbook ones: slabs for the box, the quadratic for the sphere and the cylinder's side. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 void sy_prim_set_yaw(sy_prim *p, double yaw)
 {

@@ -1,6 +1,6 @@
 /* Growing the world: materials, and primitives collected in groups whose bounding boxes let
  * a ray skip whole pieces of furniture at once. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

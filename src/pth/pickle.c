@@ -10,7 +10,7 @@
  * the three callable globals are interpreted by name (an empty dict, a tensor description),
  * nothing is imported or called, and anything else is refused. Every allocation is counted
  * against GV_PICKLE_MAX_OBJECTS_BYTES before it is made. */
-#include "io/pickle_internal.h"
+#include "pth/pickle_internal.h"
 
 #include <inttypes.h>
 #include <stdarg.h>

@@ -4,7 +4,7 @@
  * keep PATH_CLEARANCE from the planned camera path in plan view. Also rugs on the floor,
  * curtains at windows and framed paintings on the walls, which the path clears by
  * construction (it keeps 0.45 m from the walls). */
-#include "scene/synth_objects.h"
+#include "synth/synth_objects.h"
 
 #include <stdio.h>
 #include <string.h>

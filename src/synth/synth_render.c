@@ -5,7 +5,7 @@
  * K x K. Rows are spread over OpenMP threads (unless the caller already runs frames in
  * parallel); every pixel depends only on its own samples, so the image is the same with any
  * number of threads. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <omp.h>
 #include <stdlib.h>

@@ -2,7 +2,7 @@
  * (DIR.partial-XXXXXX) that is renamed to DIR only when complete, so an interrupted run never
  * leaves a folder that looks like a scene. A previous synthesised scene at DIR (it has a
  * synth.txt) is replaced; any other non-empty DIR is refused. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <dirent.h>
 #include <errno.h>

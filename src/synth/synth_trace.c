@@ -1,7 +1,7 @@
 /* Ray queries against the whole world: closest hit (camera rays) and any hit (shadow and
  * occlusion rays) through the bounding volume hierarchy, plus the outside ground, an infinite
  * plane under the room seen through doors and windows. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #define RAY_EPSILON 1e-7
 

@@ -2,7 +2,7 @@
  * camera path, furniture, lights, cameras, baked lighting, exposure), each stage drawing from
  * its own Philox stream of the seed so that changing one stage leaves the others' numbers
  * alone. gv_synth_write (synth_write.c) renders and writes it. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <stdio.h>
 #include <stdlib.h>

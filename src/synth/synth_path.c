@@ -3,7 +3,7 @@
  * middle or a walk along it. The path is planned before the furniture, which keeps clear of
  * it, so the camera is never inside an object; it keeps ROOM_MARGIN from the walls.
  * synth_camera.c adds the view directions, the timing and the shake. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -2,7 +2,7 @@
  * and a door cut into the walls, window frames, door casings, skirting boards and sometimes
  * ceiling beams; outside, an infinite ground under the sky. Walls are built from boxes
  * around their openings so that the openings are real holes (sun comes in through them). */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <stdlib.h>
 

@@ -4,7 +4,7 @@
  * local header, and the local header gives where its bytes start. Every size and offset is
  * checked against the archive's bounds before it is used, so a truncated or malformed file
  * gives one message, never a read outside the mapping. */
-#include "io/zip_internal.h"
+#include "pth/zip_internal.h"
 
 #include <inttypes.h>
 #include <stdlib.h>

@@ -1,7 +1,7 @@
 /* Solid textures (functions of the position in the primitive's frame, so they wrap around
  * corners and curved surfaces: plaster, wood rings, marble, foliage, ground) and pictures on
  * faces (paintings, book spines). All are band-limited by the footprint w (metres). */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 static double component(sy_vec v, int axis) { return axis == 0 ? v.x : axis == 1 ? v.y : v.z; }
 

@@ -3,7 +3,7 @@
  * colours fade to their mean when cells get smaller than the footprint, and every surface
  * gets dirt at a large scale and grain at a fine one, so textures have detail at several
  * scales without aliasing. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 const char *const sy_material_names[SY_MAT_COUNT] = {
     "plaster", "brick", "tiles", "planks", "stripes", "checks", "wood", "marble", "fabric",

@@ -16,9 +16,9 @@
 
 #include "gaussvid/core.h"
 #include "gaussvid/weight_files.h"
-#include "io/pickle_internal.h"
+#include "pth/pickle_internal.h"
 #include "io/safetensors_internal.h"
-#include "io/zip_internal.h"
+#include "pth/zip_internal.h"
 
 /* What a checkpoint's gv_st_file owns besides the mapping: inflated entries and gathered views. */
 typedef struct {

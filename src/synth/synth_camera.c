@@ -6,7 +6,7 @@
  * shake (about +-12 mm, +-0.6 deg yaw and pitch, +-1.2 deg roll) and a walking bob.
  * Intrinsics: a 28 mm lens on a 36 mm sensor (65.5 deg across), principal point at the
  * image centre, as the shared scenes. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <stdio.h>
 #include <stdlib.h>

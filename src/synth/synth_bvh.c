@@ -2,7 +2,7 @@
  * of every object: built once with the surface area heuristic, traversed nearest child first
  * with an explicit stack. The build is a pure function of the primitive list (ties broken by
  * index), so every run gets the same tree. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <stdlib.h>
 

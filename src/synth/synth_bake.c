@@ -6,7 +6,7 @@
  * (deterministic, independent of threads); a 3x3 blur removes the remaining grain (9 shifted
  * patterns gave the same pictures as 16 at half the time). Texels are about 4 cm at 256
  * pixels across, coarser for smaller images. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -2,7 +2,7 @@
  * width, y towards its front, z up, origin at the middle of its footprint on the floor):
  * tables with things on them, bookshelves full of books, cabinets, sofas, chairs. Sizes
  * come from the placement (width x depth); heights and details from the random stream. */
-#include "scene/synth_objects.h"
+#include "synth/synth_objects.h"
 
 static double U(gv_rng *r, double lo, double hi) { return sy_uniform(r, lo, hi); }
 

@@ -2,7 +2,7 @@
  * and colours from ranges that look like real interiors (pale paints, brown woods, red
  * bricks, saturated accents), so that every seed differs but stays plausible. Colours are
  * chosen in sRGB HSV and stored as linear albedos. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <string.h>
 

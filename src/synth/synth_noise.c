@@ -2,7 +2,7 @@
  * building blocks of the procedural textures. Band-limiting (fading octaves whose period
  * nears the pixel footprint, integrating line patterns over it) is what keeps textures free
  * of aliasing and shimmer without many samples per pixel. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 /* An integer finaliser with good avalanche (the "lowbias32" constants of C. Wellons'
  * hash-prospector). */

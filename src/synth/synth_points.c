@@ -2,7 +2,7 @@
  * every few frames, each first hit a point coloured with its shaded colour (the same
  * view-independent value the frames show), then thinned to one point per voxel (the first
  * in frame, row, column order). The sky gives no points. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 #include <stdlib.h>
 

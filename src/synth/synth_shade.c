@@ -3,7 +3,7 @@
  * and sky directly); emitters show their light's radiance; rays that leave through an
  * opening see a sky with distant hills. No view-dependent term anywhere, so a point looks
  * the same from every camera. The tone curve maps radiance to 8-bit sRGB. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 sy_vec sy_sky_radiance(const gv_synth_world *w, sy_vec d)
 {

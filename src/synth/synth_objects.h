@@ -4,7 +4,7 @@
 #ifndef GAUSSVID_SCENE_SYNTH_OBJECTS_H
 #define GAUSSVID_SCENE_SYNTH_OBJECTS_H
 
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 typedef int (*sy_object_builder)(gv_synth_world *w, gv_rng *r, const sy_frame *f, double width, double depth);
 

@@ -1,6 +1,6 @@
 /* Free-standing things of the procedural rooms: columns, pedestals with sculptures,
  * barrels, stacked crates, potted plants, floor lamps (which light the room) and balls. */
-#include "scene/synth_objects.h"
+#include "synth/synth_objects.h"
 
 static double U(gv_rng *r, double lo, double hi) { return sy_uniform(r, lo, hi); }
 

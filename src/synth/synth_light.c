@@ -3,7 +3,7 @@
  * Intensities are set so that each source gives a chosen irradiance on the floor beneath
  * it; the camera's exposure (synth_render.c) then brings the whole to a photographic level,
  * so only ratios matter: sun patches are several times brighter than lamplight. */
-#include "scene/synth_internal.h"
+#include "synth/synth_internal.h"
 
 static int emitter_material(gv_synth_world *w)
 {

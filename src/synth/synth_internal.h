@@ -1,4 +1,4 @@
-/* Internals of the procedural scene generator (src/scene/synth_*.c): vectors, primitives,
+/* Internals of the procedural scene generator (src/synth/synth_*.c): vectors, primitives,
  * materials, lights, the lightmap and the world. World frame: metres, +z up, the room's
  * floor at z = 0 centred on the origin (as the shared Blender scenes: +Z up). */
 #ifndef GAUSSVID_SCENE_SYNTH_INTERNAL_H
