@@ -640,24 +640,24 @@ static void test_odd_sizes(void)
             uint8_t *out = malloc((size_t)(5 * fb)), *want = malloc((size_t)(5 * fb));
             gv_sampler sp;
             CHECK(gv_sampler_from_name("identity", &sp) == 0 && gv_restore_latent(&s.r.net, &s.l, &sp, 3, z) == 0);
-            CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_RESIDUAL, out) == 0);
+            CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_RESIDUAL, 0, out) == 0);
             CHECK(!memcmp(out, s.clip.inputs, (size_t)(5 * fb)));
             /* the network's restoration: anchors kept, intermediates changed somewhere */
             CHECK(gv_sampler_from_name("onestep", &sp) == 0 && gv_restore_latent(&s.r.net, &s.l, &sp, 3, z) == 0);
-            CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_DECODED, out) == 0);
+            CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_DECODED, 0, out) == 0);
             CHECK(!memcmp(out, s.clip.inputs, (size_t)fb) && !memcmp(out + 4 * fb, s.clip.inputs + 4 * fb, (size_t)fb));
             CHECK(memcmp(out + fb, s.clip.inputs + fb, (size_t)(3 * fb)) != 0);
             /* the same as composing the clip padded by hand, then cropping */
             gv_clip padded;
             CHECK(gv_clip_pad(&s.clip, s.l.width, s.l.height, &padded) == 0);
             uint8_t *big = malloc((size_t)(5 * 3 * s.l.width * s.l.height));
-            CHECK(gv_restore_compose(&s.r.vae, &padded, &s.l, z, GV_COMPOSE_DECODED, big) == 0);
+            CHECK(gv_restore_compose(&s.r.vae, &padded, &s.l, z, GV_COMPOSE_DECODED, 0, big) == 0);
             CHECK(gv_clip_crop_frames(big, s.l.width, s.l.height, &s.clip.info, want) == 0 &&
                   !memcmp(out, want, (size_t)(5 * fb)));
             /* unseen: the render wherever an anchor sees the pixel */
             s.clip.coverage = malloc((size_t)(3 * w * h));
             for (int64_t i = 0; i < 3 * w * h; i++) s.clip.coverage[i] = (uint8_t)(i % 3 == 0 ? 0 : 1 + i % 2);
-            CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_UNSEEN, out) == 0);
+            CHECK(gv_restore_compose(&s.r.vae, &s.clip, &s.l, z, GV_COMPOSE_UNSEEN, 0, out) == 0);
             int bad = 0;
             for (int f = 1; f < 4; f++)
                 for (int64_t p = 0; p < (int64_t)w * h; p++)
@@ -667,7 +667,7 @@ static void test_odd_sizes(void)
             /* latents of another clip's size are refused */
             gv_clip small;
             CHECK(rf_make_clip(&small, "room", "eval", 6, s.l.width + 1, h, 40, 1) == 0);
-            CHECK_FAILS_WITH(gv_restore_compose(&s.r.vae, &small, &s.l, z, GV_COMPOSE_DECODED, big), "latents of a");
+            CHECK_FAILS_WITH(gv_restore_compose(&s.r.vae, &small, &s.l, z, GV_COMPOSE_DECODED, 0, big), "latents of a");
             gv_clip_free(&small), gv_clip_free(&padded);
             free(z), free(out), free(want), free(big);
             setup_free(&s);
