@@ -1,15 +1,17 @@
 #!/usr/bin/env bash
-# `make run`: the product's main path, `gaussvid reconstruct --adapt`, on the default scene, a
-# procedural room (`scene synth --seed 1`: 160 frames of 256x144) that the released restorer
-# never saw in training (it was trained on rooms 11-13 and courtyard, models/README.md).
-# reconstruct trains sparse 3DGS on every 16th frame, renders the 135 held-out frames between
-# the training views, adapts the released checkpoint to the room (gaussvid adapt: internal
-# pairs from the room's own training views, fine-tuning, and a gate that keeps the renders
-# unless held-back pairs gain), restores them in 45 clips, refines the 3DGS with the restored
-# frames, scores all three against the ground truth and writes flythrough.mp4, report.html
-# and a viewer.html per model (docs/RECONSTRUCT.md). It ends with the table of sparse,
-# restored and refined PSNR / SSIM from metrics.json and where the files are. Running it
-# again skips the finished stages.
+# `make run`: the product's main path, `gaussvid reconstruct` (its gated default), on the
+# default scene, a procedural room (`scene synth --seed 1`: 160 frames of 256x144) that the
+# released restorer never saw in training (it was trained on rooms 11-13 and courtyard,
+# models/README.md). reconstruct trains sparse 3DGS on every 16th frame, renders the 135
+# held-out frames between the training views, adapts the released checkpoint to the room
+# (gaussvid adapt: internal pairs from the room's own training views, fine-tuning, and a gate
+# that keeps the renders unless held-back pairs gain), and only where the gate opens restores
+# them in 45 clips and refines the 3DGS with the restored frames (a closed gate keeps the
+# renders and the sparse model, one line each: docs/RECONSTRUCT.md "Decisions"); it scores
+# all three against the ground truth and writes flythrough.mp4, report.html and a viewer.html
+# per model (docs/RECONSTRUCT.md). It ends with the table of sparse, restored and refined
+# PSNR / SSIM from metrics.json and where the files are. Running it again skips the finished
+# stages.
 #
 # Why adaptation by default: on the seven unseen cells measured (docs/history/RESULTS-2026-11.md "Issue 20:
 # every lever measured") the adapted path never lost (+0.00 where the gate closed, +1.35 dB
@@ -32,7 +34,8 @@
 #   GV_DEMO_REFINE_ITERS    refinement iterations [1000, reconstruct's default]
 #   GV_DEMO_CKPT            the restorer [models/gaussvid-small.safetensors]
 #   GV_DEMO_ADAPT           0: restore with the released checkpoint as it is, without adapting
-#                           it to the room (reconstruct without --adapt) [1]
+#                           it to the room and without the gate (reconstruct --restore-with
+#                           checkpoint) [1]
 set -euo pipefail
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} # threads sleep while they wait (docs/BENCHMARKS.md)
 gaussvid=${1:-build/gaussvid}
@@ -44,8 +47,8 @@ interval=${GV_DEMO_INTERVAL:-16}
 iters=${GV_DEMO_ITERS:-3000}
 refine_iters=${GV_DEMO_REFINE_ITERS:-1000}
 ckpt=${GV_DEMO_CKPT:-models/gaussvid-small.safetensors}
-adapt=()
-[ "${GV_DEMO_ADAPT:-1}" = 1 ] && adapt=(--adapt)
+mode=(--restore-with adapted)
+[ "${GV_DEMO_ADAPT:-1}" = 1 ] || mode=(--restore-with checkpoint)
 scene=$out/room-$seed
 
 [ -x "$gaussvid" ] || { echo "demo: $gaussvid: not built (run make)" >&2; exit 1; }
@@ -55,6 +58,6 @@ if [ ! -d "$scene" ]; then
     echo "== the default scene: procedural room $seed, $frames frames of $size -> $scene"
     "$gaussvid" scene synth --seed "$seed" --frames "$frames" --size "$size" --out "$scene"
 fi
-echo "== gaussvid reconstruct: n = $interval, $iters sparse iterations, $refine_iters refinement iterations, restorer $ckpt${adapt:+ adapted to the room}"
+echo "== gaussvid reconstruct: n = $interval, $iters sparse iterations, $refine_iters refinement iterations, restorer $ckpt ${mode[1]}"
 "$gaussvid" reconstruct --scene "$scene" --interval "$interval" --iters "$iters" --refine-iters "$refine_iters" \
-    --ckpt "$ckpt" --out "$out" "${adapt[@]}"
+    --ckpt "$ckpt" --out "$out" "${mode[@]}"

@@ -65,6 +65,8 @@ static const char METRICS[] =
     "   \"all_held_out\": {\"sparse\": {\"psnr\": 26.5, \"ssim\": 0.875, \"lpips\": null, \"frames\": 4},\n"
     "                    \"refined\": {\"psnr\": 26.0625, \"ssim\": 0.88, \"lpips\": null, \"frames\": 4}},\n"
     "   \"restorer\": {\"checkpoint\": \"n6/restorer.safetensors\", \"kind\": \"scene\", \"gate\": \"closed\"},\n"
+    "   \"decisions\": {\"restore_with\": \"adapted\", \"gate\": \"closed\", \"adaptation\": {\"ran\": true, \"why\": null},\n"
+    "                 \"restoration\": {\"ran\": false, \"why\": \"the gate is <closed>\"}, \"refinement\": null},\n"
     "   \"inputs\": {\"iters\": 3000, \"refine_weight\": 0.3, \"adapt\": true, \"lpips\": null},\n"
     "   \"stages\": [{\"name\": \"train\", \"seconds\": 12.5, \"cpu_seconds\": 20.25, \"summary\": \"1234 Gaussians <fast>\"},\n"
     "              {\"name\": \"restore\", \"seconds\": 3.25}]},\n"
@@ -308,6 +310,9 @@ static void test_self_contained(const char *html)
     CHECK(strstr(html, "data-value=\"12.5\">12.5</td>") != NULL); /* a stage's time */
     CHECK(strstr(html, "data-value=\"20.25\">20.2</td>") != NULL); /* its CPU time (%.1f: half to even) */
     CHECK(strstr(html, "1234 Gaussians &lt;fast&gt;") != NULL);     /* its summary */
+    /* the run's decisions in words; the refinement, not decided yet, is left out */
+    CHECK(strstr(html, "<p class=\"decisions\"><b>Decided:</b> restoration mode adapted; adaptation ran; the gate is "
+                       "closed; restoration skipped (the gate is &lt;closed&gt;): the restored frames are the renders.</p>") != NULL);
     /* the run's own restorer (another than the folder's) and its options */
     CHECK(strstr(html, "Restorer of this run") != NULL && strstr(html, "n6/restorer.safetensors") != NULL);
     CHECK(strstr(html, "closed: the scene's held-back pairs said restoring hurts") != NULL);
@@ -355,6 +360,8 @@ static void test_bad_input(const char *before)
     expect_bad("\"gate\": \"closed\"", "\"gate\": 0", "runs[0].restorer.gate: expected a string or null, found a number", before);
     expect_bad("\"train_frames\": [0, 6]", "\"train_frames\": [0, -6]", "runs[0].train_frames[1]: expected a frame index", before);
     expect_bad(" \"runs\": [", " \"runs\": {", "not valid JSON", before);
+    expect_bad("\"ran\": false", "\"ran\": \"no\"", "metrics.json: runs[0].decisions.restoration.ran: expected true or false", before);
+    expect_bad("\"why\": null", "\"why\": 3", "runs[0].decisions.adaptation.why: expected a string or null, found a number", before);
     expect_bad("\"restored\": \"n6/s1.png\"", "\"restored\": \"/abs/s1.png\"", "images.restored: expected a path relative to the folder", before);
 
     /* a missing image: named with its path */

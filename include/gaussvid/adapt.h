@@ -69,6 +69,11 @@ typedef struct {
     gv_train_report train;
 } gv_adapt_report;
 
+/* Whether o->base can be adapted: a cross-scene checkpoint of the network o->config names
+ * whose VAE gives each frame its own latent frame; one line naming the base when not (callers
+ * check before hours of other work). */
+int gv_adapt_check_base(const gv_adapt_options *o);
+
 /* Adapts the base to the scene at the interval and writes o->out (atomically), or continues an
  * interrupted adaptation. Fails with one line naming the input on a scene with too few
  * training views, a base of another network than o->config, a base whose VAE packs several

@@ -2,7 +2,8 @@
  * 3DGS evaluation scores it (gv_image_psnr_ssim on the 8-bit PNGs the earlier stages wrote;
  * PSNR of identical images capped at 100 dB), LPIPS with --lpips; their means; and the sparse
  * and refined models on every held-out view, the frames after the last training view
- * included (they have no right anchor, so no clip restores them). */
+ * included (they have no right anchor, so no clip restores them). With --no-restore only the
+ * sparse model is scored; the restored and refined entries are null. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -42,13 +43,17 @@ static cJSON *mean_json(const metric_sum *s, int has_lpips)
     return j;
 }
 
-/* The frame's three images scored against its ground truth; into its JSON object and sums. */
+/* The models scored: sparse, restored, refined; sparse alone with --no-restore. */
+static int n_kinds(const pipeline_run *r) { return r->opt->restore_with == GV_RESTORE_NONE ? 1 : 3; }
+
+/* The frame's images scored against its ground truth; into its JSON object and sums. */
 static int score_frame(pipeline_run *r, const pipeline_frame *f, const gv_lpips *lp, cJSON *fj, metric_sum sums[3],
                        double sparse_refined[2][3])
 {
     gv_image truth = {0};
     int rc = gv_scene_load_image(r->scene, f->truth, &truth);
-    for (int k = 0; k < 3 && rc == 0; k++) {
+    for (int k = n_kinds(r); k < 3; k++) cJSON_ReplaceItemInObject(fj, NAMES[k], cJSON_CreateNull());
+    for (int k = 0; k < n_kinds(r) && rc == 0; k++) {
         char path[4200];
         gv_image img = {0};
         double m[3];
@@ -69,12 +74,13 @@ static int score_frame(pipeline_run *r, const pipeline_frame *f, const gv_lpips 
 static int score_tail(pipeline_run *r, int frame, const gv_gaussians models[2], const gv_lpips *lp,
                       metric_sum all[2])
 {
+    int n_models = n_kinds(r) == 1 ? 1 : 2;
     static const float black[3] = {0, 0, 0};
     gv_splat_renderer renderer;
     memset(&renderer, 0, sizeof renderer);
     gv_image truth = {0};
     int rc = gv_scene_load_image(r->scene, frame, &truth);
-    for (int k = 0; k < 2 && rc == 0; k++) {
+    for (int k = 0; k < n_models && rc == 0; k++) {
         gv_image img = {0};
         double m[3];
         rc = gv_splat_render_camera(&renderer, &models[k], &r->scene->cameras[frame], black, &img) ||
@@ -98,7 +104,8 @@ static int load_models(pipeline_run *r, gv_gaussians models[2])
 {
     char path[4200];
     return pipeline_file(r, "sparse.ply", path, sizeof path) || gv_gaussians_read_ply(path, &models[0]) ||
-           pipeline_file(r, "refined.ply", path, sizeof path) || gv_gaussians_read_ply(path, &models[1]);
+           (n_kinds(r) > 1 &&
+            (pipeline_file(r, "refined.ply", path, sizeof path) || gv_gaussians_read_ply(path, &models[1])));
 }
 
 /* The run's "consistency" (consistency.c), its means appended to the stage's summary. */
@@ -135,7 +142,7 @@ int pipeline_evaluate(pipeline_run *r)
     int rc = 0, done = 0;
     for (int i = 0; i < r->n_frames && rc == 0; i++) {
         const pipeline_frame *f = &r->frames[i];
-        double sr[2][3];
+        double sr[2][3] = {{0}};
         if (f->truth >= 0) {
             rc = score_frame(r, f, lp, cJSON_GetArrayItem(frames, i), sums, sr);
             if (rc == 0) add(&all[0], sr[0]), add(&all[1], sr[1]);
@@ -156,16 +163,21 @@ int pipeline_evaluate(pipeline_run *r)
     gv_lpips_free(&lpips);
     if (rc) return -1;
     cJSON *means = sums[0].frames ? cJSON_CreateObject() : cJSON_CreateNull();
-    for (int k = 0; k < 3 && sums[0].frames; k++) cJSON_AddItemToObject(means, NAMES[k], mean_json(&sums[k], lp != NULL));
+    for (int k = 0; k < 3 && sums[0].frames; k++)
+        cJSON_AddItemToObject(means, NAMES[k], k < n_kinds(r) ? mean_json(&sums[k], lp != NULL) : cJSON_CreateNull());
     cJSON_ReplaceItemInObject(r->run, "means", means);
     cJSON *every = all[0].frames ? cJSON_CreateObject() : cJSON_CreateNull();
     if (all[0].frames) {
         cJSON_AddItemToObject(every, "sparse", mean_json(&all[0], lp != NULL));
-        cJSON_AddItemToObject(every, "refined", mean_json(&all[1], lp != NULL));
+        cJSON_AddItemToObject(every, "refined", n_kinds(r) > 1 ? mean_json(&all[1], lp != NULL) : cJSON_CreateNull());
     }
     cJSON_ReplaceItemInObject(r->run, "all_held_out", every);
     if (!sums[0].frames)
         snprintf(r->summary, sizeof r->summary, "no ground truth on the path: nothing to score");
+    else if (n_kinds(r) == 1)
+        snprintf(r->summary, sizeof r->summary, "PSNR sparse %.2f dB, SSIM %.4f (%d frames); all %d held-out views: "
+                 "sparse %.2f dB", sums[0].psnr / sums[0].frames, sums[0].ssim / sums[0].frames, sums[0].frames,
+                 all[0].frames, all[0].psnr / all[0].frames);
     else
         snprintf(r->summary, sizeof r->summary,
                  "PSNR sparse %.2f, restored %.2f, refined %.2f dB; SSIM %.4f, %.4f, %.4f (%d frames); all %d held-out "

@@ -86,7 +86,10 @@ int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, co
         cJSON_AddItemToObject(doc, "runs", cJSON_CreateArray());
     }
     cJSON_DeleteItemFromObject(doc, "restorer");
-    cJSON_AddItemToObject(doc, "restorer", pipeline_restorer_json(o->ckpt, rec, o->adapt));
+    if (o->restore_with == GV_RESTORE_NONE) cJSON_AddNullToObject(doc, "restorer");
+    else cJSON_AddItemToObject(doc, "restorer", pipeline_restorer_json(o->ckpt, rec, o->restore_with == GV_RESTORE_ADAPTED));
+    cJSON_DeleteItemFromObject(doc, "preset");
+    cJSON_AddStringToObject(doc, "preset", o->preset ? o->preset : "default");
     *out = doc;
     return 0;
 }
@@ -95,14 +98,16 @@ int pipeline_doc_open(const gv_reconstruct_options *o, const gv_scene *scene, co
 static cJSON *inputs_json(const gv_reconstruct_options *o)
 {
     cJSON *j = cJSON_CreateObject();
+    int adapted = o->restore_with == GV_RESTORE_ADAPTED;
+    cJSON_AddStringToObject(j, "preset", o->preset ? o->preset : "default");
     cJSON_AddNumberToObject(j, "iters", o->iters);
     cJSON_AddStringToObject(j, "densify", gv_splat_densify_mode_name(o->densify));
     cJSON_AddNumberToObject(j, "refine_iters", o->refine_iters);
     cJSON_AddNumberToObject(j, "refine_weight", o->refine_weight);
     cJSON_AddStringToObject(j, "checkpoint", o->ckpt);
-    cJSON_AddBoolToObject(j, "adapt", o->adapt);
-    cJSON_AddNumberToObject(j, "adapt_steps", o->adapt ? (double)o->adapt_options.train.steps : 0);
-    cJSON_AddStringToObject(j, "adapt_config", o->adapt && o->adapt_options.config ? o->adapt_options.config : "");
+    cJSON_AddStringToObject(j, "restore_with", gv_restore_with_name(o->restore_with));
+    cJSON_AddNumberToObject(j, "adapt_steps", adapted ? (double)o->adapt_options.train.steps : 0);
+    cJSON_AddStringToObject(j, "adapt_config", adapted && o->adapt_options.config ? o->adapt_options.config : "");
     cJSON_AddNumberToObject(j, "downscale", o->downscale);
     cJSON_AddNumberToObject(j, "seed", (double)o->seed);
     if (o->lpips) cJSON_AddStringToObject(j, "lpips", o->lpips);
@@ -180,6 +185,83 @@ static cJSON *new_run(const pipeline_run *r, cJSON *inputs)
     return run;
 }
 
+/* Where restoration is off, the frames have no restored or refined image. */
+static void frame_images(pipeline_run *r)
+{
+    int restoring = r->opt->restore_with != GV_RESTORE_NONE;
+    const cJSON *f;
+    int i = 0;
+    cJSON_ArrayForEach(f, cJSON_GetObjectItem(r->run, "frames"))
+    {
+        cJSON *images = cJSON_GetObjectItem(f, "images");
+        const char *kinds[2] = {"restored", "refined"};
+        for (int k = 0; k < 2 && images && i < r->n_frames; k++) {
+            char rel[256];
+            pipeline_frame_relpath(r, kinds[k], r->frames[i].index, rel, sizeof rel);
+            cJSON_ReplaceItemInObject(images, kinds[k], restoring ? cJSON_CreateString(rel) : cJSON_CreateNull());
+        }
+        i++;
+    }
+}
+
+static cJSON *decision_json(int ran, const char *why)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddBoolToObject(j, "ran", ran);
+    if (why) cJSON_AddStringToObject(j, "why", why);
+    else cJSON_AddNullToObject(j, "why");
+    return j;
+}
+
+void pipeline_decision(pipeline_run *r, const char *what, int ran, const char *why)
+{
+    cJSON *d = cJSON_GetObjectItem(r->run, "decisions");
+    cJSON_DeleteItemFromObject(d, what);
+    cJSON_AddItemToObject(d, what, decision_json(ran, why));
+}
+
+void pipeline_decision_gate(pipeline_run *r, const char *gate)
+{
+    cJSON *d = cJSON_GetObjectItem(r->run, "decisions");
+    cJSON_ReplaceItemInObject(d, "gate", gate ? cJSON_CreateString(gate) : cJSON_CreateNull());
+}
+
+/* The run's "decisions" as far as the options and the plan decide them; restore and refine
+ * fill in the gate and whether they ran. */
+static void plan_decisions(pipeline_run *r)
+{
+    int mode = r->opt->restore_with;
+    cJSON *d = cJSON_GetObjectItem(r->run, "decisions");
+    if (!cJSON_IsObject(d)) {
+        cJSON_DeleteItemFromObject(r->run, "decisions");
+        d = cJSON_AddObjectToObject(r->run, "decisions");
+    }
+    cJSON_DeleteItemFromObject(d, "restore_with");
+    cJSON_AddStringToObject(d, "restore_with", gv_restore_with_name(mode));
+    char why[700];
+    const char *adapt_why = r->adapt ? NULL : r->no_adapt[0] ? (snprintf(why, sizeof why, "cannot run here: %s", r->no_adapt), why)
+                            : mode == GV_RESTORE_ADAPTED ? "the checkpoint is adapted already (a scene checkpoint): its gate decides"
+                            : mode == GV_RESTORE_CHECKPOINT ? "--restore-with checkpoint"
+                                                            : "--no-restore";
+    pipeline_decision(r, "adaptation", r->adapt, adapt_why);
+    if (!cJSON_GetObjectItem(d, "gate")) cJSON_AddNullToObject(d, "gate");
+    if (mode == GV_RESTORE_NONE) {
+        pipeline_decision_gate(r, NULL);
+        pipeline_decision(r, "restoration", 0, "--no-restore");
+        pipeline_decision(r, "refinement", 0, "--no-restore");
+        cJSON_ReplaceItemInObject(cJSON_GetObjectItem(r->run, "gaussians"), "refined", cJSON_CreateNull());
+    } else { /* decided by the stages; a decision of --no-restore is undone */
+        const char *keys[2] = {"restoration", "refinement"};
+        for (int k = 0; k < 2; k++) {
+            const cJSON *was = cJSON_GetObjectItem(cJSON_GetObjectItem(d, keys[k]), "why");
+            if (!cJSON_GetObjectItem(d, keys[k]) || (cJSON_IsString(was) && !strcmp(was->valuestring, "--no-restore"))) {
+                cJSON_DeleteItemFromObject(d, keys[k]);
+                cJSON_AddNullToObject(d, keys[k]);
+            }
+        }
+    }
+}
+
 int pipeline_doc_run(pipeline_run *r)
 {
     cJSON *runs = cJSON_GetObjectItem(r->doc, "runs"), *inputs = inputs_json(r->opt), *found = NULL;
@@ -195,9 +277,13 @@ int pipeline_doc_run(pipeline_run *r)
             cJSON *fj = cJSON_GetArrayItem(frames, i), *images = cJSON_GetObjectItem(fj, "images");
             if (images) name_frame(r, &r->frames[i], fj, images);
         }
+        frame_images(r);
+        plan_decisions(r);
         return 0;
     }
     r->run = new_run(r, inputs);
+    frame_images(r);
+    plan_decisions(r);
     /* runs stay sorted by interval */
     int at = 0;
     for (cJSON *run = runs->child; run; run = run->next, at++)

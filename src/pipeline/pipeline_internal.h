@@ -38,6 +38,8 @@ typedef struct {
     int n_clips;
     int (*clips)[GV_CLIP_FRAMES];/* indices into frames for slots 1..3; anchors: training-view
                                     positions k (scene frame train[k]) as -1 - k */
+    int adapt;                   /* the adapt stage runs for this interval */
+    char no_adapt[512];          /* restore_with adapted: why adaptation cannot run here ("" when it can) */
     char restorer[4096];         /* the checkpoint restore uses */
     cJSON *doc;                  /* the whole metrics.json */
     cJSON *run;                  /* this interval's object in doc's "runs" */
@@ -63,8 +65,18 @@ int pipeline_refine(pipeline_run *r);
 int pipeline_render_model(pipeline_run *r, const gv_gaussians *g, const char *what);
 int pipeline_render(pipeline_run *r);
 /* restore_stages.c */
+/* Decides r->adapt and r->no_adapt from the options, the checkpoint and the interval. */
+int pipeline_plan_adaptation(pipeline_run *r);
 int pipeline_adapt(pipeline_run *r);
+/* Whether restore runs the network: 1, or 0 with why in words (the renders are kept: the
+ * adaptation could not run, or the scene checkpoint's gate is closed); -1 on error. With
+ * record set, the run's "restorer" and gate decision are written from that one open. */
+int pipeline_restoration_decision(pipeline_run *r, int record, char *why, size_t size);
 int pipeline_restore(pipeline_run *r);
+/* Copies every evaluated frame's DIR/nN/frames/<from>/ PNG to frames/<to>/. */
+int pipeline_copy_frames(pipeline_run *r, const char *from, const char *to);
+/* Copies a file of the run's folder to another name there, atomically. */
+int pipeline_copy_file(pipeline_run *r, const char *from, const char *to);
 /* evaluate.c */
 int pipeline_evaluate(pipeline_run *r);
 /* consistency.c: the 3D consistency of the run's sparse renders, restored frames and refined
@@ -81,9 +93,10 @@ int pipeline_video(pipeline_run *r);
 typedef struct {
     pipeline_run *r;
     int w, h, W, H, panels, scale;
+    int restoring, truth;        /* a restored panel (not with --no-restore); a ground-truth panel */
     int steps;                   /* fly-through frames per gap between training views */
     int n_flight, n_total;       /* fly-through frames; all frames */
-    gv_gaussians models[2];      /* sparse, refined */
+    gv_gaussians models[2];      /* sparse, refined (when restoring) */
     gv_splat_renderer renderer;
 } pipeline_video_frames;
 int pipeline_video_open(pipeline_video_frames *v, pipeline_run *r);
@@ -111,6 +124,11 @@ int pipeline_stage_record(pipeline_run *r, const char *name, const char *keys, d
 void pipeline_stage_forget(pipeline_run *r, const char *name);
 /* The restorer object of metrics.json for a checkpoint (adapt: the scene checkpoint of --adapt). */
 cJSON *pipeline_restorer_json(const char *ckpt, const gv_restorer *r, int adapt);
+/* The run's "decisions" (what: "adaptation", "restoration" or "refinement"): whether it ran
+ * and, when it did not, why (NULL: it ran). */
+void pipeline_decision(pipeline_run *r, const char *what, int ran, const char *why);
+/* The run's "decisions"."gate": "open", "closed" or NULL (no scene checkpoint). */
+void pipeline_decision_gate(pipeline_run *r, const char *gate);
 /* doc-building helpers */
 cJSON *pipeline_metric_json(double psnr, double ssim, double lpips, int has_lpips);
 

@@ -1,13 +1,17 @@
-/* The restorer's stages of `reconstruct`: adapt (gaussvid adapt on the scene, with --adapt)
- * and restore: every evaluated frame restored in 5-frame clips of the dataset's layout (clean
+/* The restorer's stages of `reconstruct`: adapt (gaussvid adapt on the scene, by default) and
+ * restore: every evaluated frame restored in 5-frame clips of the dataset's layout (clean
  * anchors at the two training views around it, three renders between; docs/FORMATS-DATASET.md),
- * written as clip files and restored as `gaussvid restore` restores them (restore.h). */
+ * written as clip files and restored as `gaussvid restore` restores them (restore.h). Where
+ * the evidence says restoring would not help (a closed gate, or no adaptation possible on the
+ * scene), restore does not run the network: the restored frames are copies of the renders. */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "gaussvid/adapt.h"
 #include "gaussvid/core.h"
 #include "gaussvid/coverage.h"
+#include "gaussvid/internal_pairs.h"
 #include "gaussvid/ply.h"
 #include "gaussvid/restore.h"
 #include "gaussvid/scene_adapt.h"
@@ -15,10 +19,26 @@
 
 #define ADAPTED "restorer.safetensors" /* the scene checkpoint of --adapt, in DIR/nN */
 
-/* The checkpoint restore uses: the adapted one with --adapt, else --ckpt. */
+int pipeline_plan_adaptation(pipeline_run *r)
+{
+    r->adapt = 0, r->no_adapt[0] = 0;
+    if (r->opt->restore_with != GV_RESTORE_ADAPTED) return 0;
+    int scene_ckpt = gv_scene_checkpoint_is(r->opt->ckpt);
+    if (scene_ckpt < 0) return -1;
+    if (scene_ckpt == 1) return 0; /* adapted already: its own gate decides */
+    if (r->smooth_path)
+        snprintf(r->no_adapt, sizeof r->no_adapt, "every view trains (n = 1), so no view is left to pair with");
+    else if (gv_internal_check(r->scene->n_frames, r->n))
+        snprintf(r->no_adapt, sizeof r->no_adapt, "%s", gv_last_error());
+    else
+        r->adapt = 1;
+    return 0;
+}
+
+/* The checkpoint restore uses: the adapted one when the adapt stage runs, else --ckpt. */
 static int restorer_path(pipeline_run *r)
 {
-    if (!r->opt->adapt) {
+    if (!r->adapt) {
         snprintf(r->restorer, sizeof r->restorer, "%s", r->opt->ckpt);
         return 0;
     }
@@ -134,10 +154,77 @@ static int write_restored(void *ctx, const gv_clip *clip, const uint8_t *restore
     return 0;
 }
 
+int pipeline_restoration_decision(pipeline_run *r, int record, char *why, size_t size)
+{
+    why[0] = 0;
+    if (r->opt->restore_with == GV_RESTORE_NONE) return snprintf(why, size, "--no-restore"), 0;
+    if (r->no_adapt[0]) {
+        if (record) pipeline_decision_gate(r, NULL);
+        return snprintf(why, size, "adaptation cannot run here"), 0;
+    }
+    if (restorer_path(r)) return -1;
+    gv_restorer rec; /* the record alone: one open, no weights read */
+    memset(&rec, 0, sizeof rec);
+    if (gv_restorer_open(r->restorer, GV_RESTORER_RECORD, &rec)) return -1;
+    int closed = rec.scene && !rec.adaptation.gate_open;
+    if (closed)
+        snprintf(why, size, "the gate is closed (held-back pairs %+.2f dB when restored)",
+                 gv_scene_gate_change(&rec.adaptation));
+    if (record) {
+        pipeline_decision_gate(r, rec.scene ? (closed ? "closed" : "open") : NULL);
+        cJSON_DeleteItemFromObject(r->run, "restorer");
+        cJSON_AddItemToObject(r->run, "restorer", pipeline_restorer_json(r->restorer, &rec, 0));
+    }
+    gv_restorer_free(&rec);
+    return !closed;
+}
+
+int pipeline_copy_file(pipeline_run *r, const char *from, const char *to)
+{
+    char src[4200], dst[4200];
+    if (pipeline_file(r, from, src, sizeof src) || pipeline_file(r, to, dst, sizeof dst)) return -1;
+    char *data = NULL;
+    size_t size = 0;
+    if (gv_read_file(src, &data, &size)) return -1;
+    gv_atomic_file af;
+    int rc = gv_atomic_open(&af, dst);
+    if (rc == 0 && fwrite(data, 1, size, af.f) != size) {
+        gv_atomic_abort(&af);
+        rc = gv_fail("%s: cannot write", dst);
+    } else if (rc == 0) {
+        rc = gv_atomic_commit(&af);
+    }
+    free(data);
+    return rc;
+}
+
+int pipeline_copy_frames(pipeline_run *r, const char *from, const char *to)
+{
+    char name[64], dir[4200];
+    snprintf(name, sizeof name, "frames/%s", to);
+    if (pipeline_file(r, name, dir, sizeof dir) || gv_mkdirs(dir)) return -1;
+    for (int i = 0; i < r->n_frames; i++) {
+        char a[256], b[256];
+        pipeline_frame_relpath(r, from, r->frames[i].index, a, sizeof a);
+        pipeline_frame_relpath(r, to, r->frames[i].index, b, sizeof b);
+        if (pipeline_copy_file(r, a, b)) return -1;
+    }
+    return 0;
+}
+
 int pipeline_restore(pipeline_run *r)
 {
+    char why[700];
+    int decision = pipeline_restoration_decision(r, 1, why, sizeof why);
+    if (decision < 0) return -1;
+    pipeline_decision(r, "restoration", decision, decision ? NULL : why);
+    if (decision == 0) { /* not run for nothing: the renders pass through */
+        snprintf(r->summary, sizeof r->summary, "skipped: %s%s%s%s; the restored frames are the renders", why,
+                 r->no_adapt[0] ? " (" : "", r->no_adapt, r->no_adapt[0] ? ")" : "");
+        return pipeline_copy_frames(r, "render", "restored");
+    }
     char clips_dir[4200], restored_dir[4200];
-    if (restorer_path(r) || pipeline_file(r, "clips", clips_dir, sizeof clips_dir) ||
+    if (pipeline_file(r, "clips", clips_dir, sizeof clips_dir) ||
         pipeline_file(r, "frames/restored", restored_dir, sizeof restored_dir) || gv_mkdirs(clips_dir) ||
         gv_mkdirs(restored_dir))
         return -1;
@@ -162,24 +249,18 @@ int pipeline_restore(pipeline_run *r)
     ro.compose = GV_COMPOSE_RESIDUAL;
     restored_writer writer = {r, 0};
     ro.each = write_restored, ro.each_ctx = &writer;
-    gv_restorer net; /* one open: the record always, the weights unless a closed gate keeps the renders */
+    gv_restorer net; /* the gate is open or there is none (the decision above): the weights */
     memset(&net, 0, sizeof net);
-    if (rc == 0) rc = gv_restorer_open(r->restorer, GV_RESTORER_NETWORK_IF_GATE_OPEN, &net);
+    if (rc == 0) rc = gv_restorer_open(r->restorer, GV_RESTORER_NETWORK, &net);
     /* a scene checkpoint restores as its gate measured: with its composition */
     if (rc == 0 && net.scene && gv_adapt_gate_compose(&net.adaptation, &ro.compose)) rc = -1;
-    ro.keep_renders = rc == 0 && net.scene && !net.adaptation.gate_open;
-    if (rc == 0) rc = gv_restore_files(ro.keep_renders ? NULL : &net, names, r->n_clips, &ro);
+    if (rc == 0) rc = gv_restore_files(&net, names, r->n_clips, &ro);
     if (rc == 0) {
-        cJSON_DeleteItemFromObject(r->run, "restorer");
-        cJSON_AddItemToObject(r->run, "restorer", pipeline_restorer_json(r->restorer, &net, 0));
         char sampler[256];
         gv_sampler_describe(&ro.sampler, sampler, sizeof sampler);
-        if (ro.keep_renders)
-            snprintf(r->summary, sizeof r->summary, "%d clips: the scene checkpoint's gate is closed, so the renders "
-                     "are kept unchanged", r->n_clips);
-        else
-            snprintf(r->summary, sizeof r->summary, "%d clips restored with %s (%s, %s composition)", r->n_clips,
-                     r->restorer, sampler, gv_compose_name(ro.compose));
+        snprintf(r->summary, sizeof r->summary, "%d clips restored with %s (%s, %s composition)%s", r->n_clips,
+                 r->restorer, sampler, gv_compose_name(ro.compose),
+                 net.scene ? ": the gate is open" : ", ungated (--restore-with checkpoint)");
     }
     gv_restorer_free(&net);
     free(paths), free(names);

@@ -8,27 +8,35 @@
 #include "gaussvid/checkpoint.h"
 #include "gaussvid/condition.h"
 #include "gaussvid/core.h"
+#include "gaussvid/internal_pairs.h"
 #include "gaussvid/model_config.h"
 #include "gaussvid/report.h"
 #include "gaussvid/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
+/* Which stages a run has: adapt where it runs on this interval, restore and refine unless
+ * restoration is off (a skipped restoration or refinement still runs its stage: it writes
+ * the renders and the sparse model under their names, and says why). */
+static int always(const pipeline_run *r) { return (void)r, 1; }
+static int adapting(const pipeline_run *r) { return r->adapt; }
+static int restoring(const pipeline_run *r) { return r->opt->restore_with != GV_RESTORE_NONE; }
+
 typedef struct {
     const char *name;
     int (*run)(pipeline_run *r);
-    int adapt_only;                 /* runs only with --adapt */
+    int (*applies)(const pipeline_run *r);
     const char *inputs;             /* the options it depends on (keys of metrics.json's "inputs") */
     const char *outputs[4];         /* in DIR/nN; "frames/X" means every evaluated frame's PNG */
 } stage;
 
 static const stage STAGES[] = {
-    {"train", pipeline_train, 0, "iters densify seed downscale", {"sparse.ply", "sparse.splat"}},
-    {"render", pipeline_render, 0, "", {"frames/render"}},
-    {"adapt", pipeline_adapt, 1, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}},
-    {"restore", pipeline_restore, 0, "checkpoint adapt seed", {"frames/restored"}},
-    {"refine", pipeline_refine, 0, "refine_iters refine_weight", {"refined.ply", "refined.splat", "frames/refined"}},
-    {"evaluate", pipeline_evaluate, 0, "lpips", {NULL}},
-    {"video", pipeline_video, 0, "fps", {"flythrough.mp4"}},
+    {"train", pipeline_train, always, "iters densify seed downscale", {"sparse.ply", "sparse.splat"}},
+    {"render", pipeline_render, always, "", {"frames/render"}},
+    {"adapt", pipeline_adapt, adapting, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}},
+    {"restore", pipeline_restore, restoring, "checkpoint restore_with seed", {"frames/restored"}},
+    {"refine", pipeline_refine, restoring, "refine_iters refine_weight", {"refined.ply", "refined.splat", "frames/refined"}},
+    {"evaluate", pipeline_evaluate, always, "lpips restore_with", {NULL}},
+    {"video", pipeline_video, always, "fps restore_with", {"flythrough.mp4"}},
 };
 #define N_STAGES ((int)(sizeof STAGES / sizeof STAGES[0]))
 
@@ -48,6 +56,8 @@ void gv_reconstruct_defaults(gv_reconstruct_options *o)
     o->densify = GV_DENSIFY_DEFAULT;
     o->refine_iters = 1000;
     o->refine_weight = 0.3;
+    o->restore_with = GV_RESTORE_ADAPTED;
+    o->preset = "default";
     o->fps = 8;
     gv_adapt_defaults(&o->adapt_options);
 }
@@ -82,6 +92,16 @@ static int stage_index(const char *name)
     return -1;
 }
 
+/* 1 when the default path will adapt a cross-scene checkpoint for some interval: an interval
+ * with the training views for it (the caller knows the checkpoint is not a scene one). */
+static int adapts_somewhere(const gv_reconstruct_options *o, const gv_scene *scene)
+{
+    if (o->restore_with != GV_RESTORE_ADAPTED) return 0;
+    for (int k = 0; k < o->n_intervals; k++)
+        if (o->intervals[k] > 1 && gv_internal_check(scene->n_frames, o->intervals[k]) == 0) return 1;
+    return 0;
+}
+
 /* The checks that need no training: flags, the checkpoint (its record into rec), one image
  * size (any: the restorer pads), ffmpeg when the video stage will run. */
 static int check_options(const gv_reconstruct_options *o, const gv_scene *scene, int last, gv_restorer *rec)
@@ -91,9 +111,14 @@ static int check_options(const gv_reconstruct_options *o, const gv_scene *scene,
     if (!(o->refine_weight > 0) || o->refine_weight > 1)
         return gv_fail("--refine-weight %g: expected a weight in (0, 1]", o->refine_weight);
     if (!(o->fps > 0) || o->fps > 240) return gv_fail("--fps %g: expected 0 < fps <= 240", o->fps);
+    if (o->restore_with < GV_RESTORE_ADAPTED || o->restore_with > GV_RESTORE_NONE)
+        return gv_fail("restoration mode %d: expected " GV_RESTORE_WITH_NAMES, o->restore_with);
     for (int k = 0; k < o->n_intervals; k++)
         if (gv_interval_check(o->intervals[k], scene->n_frames, GV_INTERVAL_RECONSTRUCT))
             return gv_fail_context("%s: --interval", scene->dir);
+    char ffmpeg[4200];
+    if (last >= stage_index("video") && pipeline_find_ffmpeg(o, ffmpeg, sizeof ffmpeg)) return -1;
+    if (o->restore_with == GV_RESTORE_NONE) return 0; /* no restorer needed */
     if (!gv_file_exists(o->ckpt)) return gv_fail("%s: no such checkpoint", o->ckpt);
     gv_model_cost cost;
     int w = scene->cameras[0].width, h = scene->cameras[0].height;
@@ -103,14 +128,28 @@ static int check_options(const gv_reconstruct_options *o, const gv_scene *scene,
                            scene->cameras[i].width, scene->cameras[i].height, w, h);
     if (gv_restorer_open(o->ckpt, GV_RESTORER_RECORD, rec)) return -1;
     const gv_model_config cfg = rec->cfg;
+    if (!rec->scene && adapts_somewhere(o, scene)) {
+        gv_adapt_options a = o->adapt_options;
+        a.base = o->ckpt;
+        if (gv_adapt_check_base(&a)) {
+            char why[1024];
+            snprintf(why, sizeof why, "%s", gv_last_error());
+            return gv_fail("%s (the default path adapts it; --restore-with checkpoint restores with it as it is)", why);
+        }
+    }
     /* any size: the restorer pads each clip to its block and crops the result (condition.h) */
     int pw = 0, ph = 0;
     if (gv_condition_padded_size(&cfg, w, h, &pw, &ph)) return gv_fail_context("%s", scene->dir);
     if (gv_model_cost_estimate(&cfg, 5, ph, pw, &cost))
         return gv_fail_context("%s: the restorer %s (%s) on 5-frame clips of %dx%d", scene->dir, o->ckpt, cfg.name, pw, ph);
-    char ffmpeg[4200];
-    if (last >= stage_index("video") && pipeline_find_ffmpeg(o, ffmpeg, sizeof ffmpeg)) return -1;
     return 0;
+}
+
+/* 1 when the run's stages list has the stage, finished from any inputs. */
+static int stage_recorded(const pipeline_run *r, const stage *s)
+{
+    char why[256];
+    return pipeline_stage_done(r, s->name, s->inputs, why, sizeof why) || why[0];
 }
 
 /* Every stage of one interval up to `last`. */
@@ -119,7 +158,10 @@ static int run_interval(pipeline_run *r, int last)
     int redo = 0;
     for (int i = 0; i <= last; i++) {
         const stage *s = &STAGES[i];
-        if (s->adapt_only && !r->opt->adapt) continue;
+        if (!s->applies(r)) { /* a record from another mode is stale, and so are the later ones */
+            if (stage_recorded(r, s)) pipeline_stage_forget(r, s->name), redo = 1;
+            continue;
+        }
         char why[256];
         if (!redo && pipeline_stage_done(r, s->name, s->inputs, why, sizeof why)) {
             if (outputs_exist(r, s)) {
@@ -148,8 +190,11 @@ int gv_reconstruct(const gv_reconstruct_options *o)
     if (o->stop_after && (last = stage_index(o->stop_after)) < 0)
         return gv_fail("--stop-after %s: not a stage (train, render, adapt, restore, refine, evaluate, video)",
                        o->stop_after);
-    if (o->stop_after && !strcmp(o->stop_after, "adapt") && !o->adapt)
-        return gv_fail("--stop-after adapt: the adapt stage runs only with --adapt");
+    if (o->stop_after && !strcmp(o->stop_after, "adapt") && o->restore_with != GV_RESTORE_ADAPTED)
+        return gv_fail("--stop-after adapt: the adapt stage runs only with --restore-with adapted (the default)");
+    if (o->stop_after && (!strcmp(o->stop_after, "restore") || !strcmp(o->stop_after, "refine")) &&
+        o->restore_with == GV_RESTORE_NONE)
+        return gv_fail("--stop-after %s: --no-restore has no %s stage", o->stop_after, o->stop_after);
     gv_scene scene;
     gv_scene_options so = {.downscale = o->downscale};
     if (gv_scene_load(o->scene_dir, &so, &scene)) return -1;
@@ -158,7 +203,7 @@ int gv_reconstruct(const gv_reconstruct_options *o)
     memset(&rec, 0, sizeof rec);
     int rc = check_options(o, &scene, last, &rec);
     char scene_name[GV_SCENE_NAME_MAX];
-    if (rc == 0) /* the scene's numbers mean less when the restorer learned from it */
+    if (rc == 0 && o->restore_with != GV_RESTORE_NONE) /* the scene's numbers mean less when the restorer learned from it */
         rc = gv_scene_name_of(o->scene_dir, scene_name, sizeof scene_name) || gv_warn_if_trained_on(&rec, o->ckpt, scene_name);
     if (rc == 0) rc = gv_mkdirs(o->out_dir);
     if (rc == 0) gv_atomic_sweep(o->out_dir, NULL);
@@ -172,7 +217,7 @@ int gv_reconstruct(const gv_reconstruct_options *o)
         snprintf(name, sizeof name, "n%d", o->intervals[k]);
         rc = gv_scene_name_of(o->scene_dir, r.scene_name, sizeof r.scene_name) ||
              gv_path_join(r.dir, sizeof r.dir, o->out_dir, name) || pipeline_plan(&r, &scene, o->intervals[k]) ||
-             gv_mkdirs(r.dir) || pipeline_doc_run(&r) || pipeline_doc_write(&r);
+             pipeline_plan_adaptation(&r) || gv_mkdirs(r.dir) || pipeline_doc_run(&r) || pipeline_doc_write(&r);
         if (rc == 0) {
             gv_atomic_sweep(r.dir, NULL);
             gv_info("n=%d: %d training views, %d %s frames in %d clips", r.n, r.n_train, r.n_frames,

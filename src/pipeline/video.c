@@ -1,7 +1,7 @@
 /* The video stage of `reconstruct`: the frames of video_frames.c (a fly-through along the
  * training cameras, then the evaluated frames side by side, labelled) encoded to
- * nN/flythrough.mp4 by Debian's ffmpeg program (H.264 in MP4, yuv420p, the size padded to even numbers), fed raw RGB
- * through a pipe. It writes to a temporary beside the video and renames on success (the
+ * nN/flythrough.mp4 by Debian's ffmpeg program (H.264 in MP4, yuv420p, the size padded to even
+ * numbers), fed raw RGB through a pipe. It writes to a temporary beside the video and renames on success (the
  * atomic writer's naming, so gv_atomic_sweep removes a killed run's leftover); ffmpeg's own
  * messages go to nN/flythrough.log. */
 #include <errno.h>
@@ -103,11 +103,11 @@ int pipeline_video(pipeline_run *r)
     free(frame);
     if (rc == 0)
         snprintf(r->summary, sizeof r->summary,
-                 "%s: %d frames at %g fps: a fly-through of %d frames through the %d training views (sparse | "
-                 "refined%s), then the %d %s frames (%s)",
-                 video, v.n_total, r->opt->fps, v.n_flight, r->n_train, v.panels == 3 ? " | nearest photo" : "",
-                 r->n_frames, r->smooth_path ? "path" : "held-out",
-                 v.panels == 3 ? "render | restored | ground truth" : "render | restored");
+                 "%s: %d frames at %g fps: a fly-through of %d frames through the %d training views (sparse%s%s), "
+                 "then the %d %s frames (render%s%s)",
+                 video, v.n_total, r->opt->fps, v.n_flight, r->n_train, v.restoring ? " | refined" : "",
+                 v.truth ? " | nearest photo" : "", r->n_frames, r->smooth_path ? "path" : "held-out",
+                 v.restoring ? " | restored" : "", v.truth ? " | ground truth" : "");
     pipeline_video_close(&v);
     return rc;
 }

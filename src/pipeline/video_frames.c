@@ -1,10 +1,11 @@
 /* What the video of a run shows, frame by frame (docs/RECONSTRUCT.md, "The video"):
  *   1. a fly-through: a smooth path through the training cameras (gv_camera_interpolate:
  *      rotations by slerp, centres and intrinsics linearly), `steps` frames per gap, the
- *      sparse and the refined model rendered side by side, and with ground truth the scene's
- *      photo nearest on the capture's path beside them, a held-out photo marked in amber;
- *   2. every evaluated frame: its sparse render, its restored frame and its ground truth (or,
- *      on a smooth path, render and restored), named after its photo.
+ *      sparse and the refined model rendered side by side (the sparse alone with --no-restore),
+ *      and with ground truth the scene's photo nearest on the capture's path beside them, a
+ *      held-out photo marked in amber;
+ *   2. every evaluated frame: its sparse render, its restored frame (not with --no-restore) and
+ *      its ground truth (not on a smooth path), named after its photo.
  * Each panel is labelled at its top and each frame says at its bottom where it is, in the
  * bitmap font of gv_image_draw_text, so the labels need no font file and no ffmpeg filter. */
 #include <math.h>
@@ -23,7 +24,9 @@ int pipeline_video_open(pipeline_video_frames *v, pipeline_run *r)
     memset(v, 0, sizeof *v);
     v->r = r;
     v->w = r->frames[0].camera.width, v->h = r->frames[0].camera.height;
-    v->panels = r->frames[0].truth >= 0 ? 3 : 2;
+    v->restoring = r->opt->restore_with != GV_RESTORE_NONE;
+    v->truth = r->frames[0].truth >= 0;
+    v->panels = 1 + v->restoring + v->truth;
     v->W = (v->panels * v->w + 1) & ~1, v->H = (v->h + 1) & ~1;
     v->scale = v->h / 144 > 1 ? v->h / 144 : 1;
     v->steps = r->n > 8 ? r->n : 8;
@@ -31,7 +34,8 @@ int pipeline_video_open(pipeline_video_frames *v, pipeline_run *r)
     v->n_total = v->n_flight + r->n_frames;
     char path[4200];
     if (pipeline_file(r, "sparse.ply", path, sizeof path) || gv_gaussians_read_ply(path, &v->models[0]) ||
-        pipeline_file(r, "refined.ply", path, sizeof path) || gv_gaussians_read_ply(path, &v->models[1])) {
+        (v->restoring &&
+         (pipeline_file(r, "refined.ply", path, sizeof path) || gv_gaussians_read_ply(path, &v->models[1])))) {
         pipeline_video_close(v);
         return -1;
     }
@@ -108,7 +112,7 @@ static int flight_frame(pipeline_video_frames *v, int i, gv_image *canvas)
     gv_camera pose;
     gv_camera_interpolate(a, b, s, &pose);
     static const char *const names[2] = {"sparse 3DGS", "refined 3DGS"};
-    for (int m = 0; m < 2; m++) {
+    for (int m = 0; m < 1 + v->restoring; m++) {
         gv_image img = {0};
         int rc = gv_splat_render_camera(&v->renderer, &v->models[m], &pose, black, &img) ||
                  paste(v, canvas, m, &img, names[m]);
@@ -119,9 +123,9 @@ static int flight_frame(pipeline_video_frames *v, int i, gv_image *canvas)
     int nearest = r->train[k] + (int)lround(s * (r->train[k + 1] - r->train[k]));
     int held_out = !is_training_view(r, nearest);
     char text[PIPELINE_NAME_MAX + 64];
-    if (v->panels == 3) {
-        if (paste_photo(v, canvas, 2, nearest)) return -1;
-        label(v, canvas, 2, held_out ? "held-out photo" : "training photo", held_out ? AMBER : WHITE);
+    if (v->truth) {
+        if (paste_photo(v, canvas, v->panels - 1, nearest)) return -1;
+        label(v, canvas, v->panels - 1, held_out ? "held-out photo" : "training photo", held_out ? AMBER : WHITE);
     }
     snprintf(text, sizeof text, "fly-through %d/%d, near %s%s", i + 1, v->n_flight, r->scene->cameras[nearest].name,
              held_out ? " (held out)" : " (training view)");
@@ -129,20 +133,23 @@ static int flight_frame(pipeline_video_frames *v, int i, gv_image *canvas)
     return 0;
 }
 
-/* Evaluated frame j: render | restored | ground truth, named after its photo. */
+/* Evaluated frame j: render | restored | ground truth (those it has), named after its photo. */
 static int evaluated_frame(pipeline_video_frames *v, int j, gv_image *canvas)
 {
     const pipeline_run *r = v->r;
     const pipeline_frame *f = &r->frames[j];
     char path[4200], text[PIPELINE_NAME_MAX + 64];
-    if (pipeline_frame_path(r, "render", f->index, path, sizeof path) || paste_file(v, canvas, 0, path) ||
-        pipeline_frame_path(r, "restored", f->index, path, sizeof path) || paste_file(v, canvas, 1, path))
+    if (pipeline_frame_path(r, "render", f->index, path, sizeof path) || paste_file(v, canvas, 0, path))
         return -1;
     label(v, canvas, 0, "sparse render", WHITE);
-    label(v, canvas, 1, "restored", WHITE);
-    if (v->panels == 3) {
-        if (paste_photo(v, canvas, 2, f->truth)) return -1;
-        label(v, canvas, 2, "ground truth", WHITE);
+    if (v->restoring) {
+        if (pipeline_frame_path(r, "restored", f->index, path, sizeof path) || paste_file(v, canvas, 1, path))
+            return -1;
+        label(v, canvas, 1, "restored", WHITE);
+    }
+    if (v->truth) {
+        if (paste_photo(v, canvas, v->panels - 1, f->truth)) return -1;
+        label(v, canvas, v->panels - 1, "ground truth", WHITE);
     }
     if (r->smooth_path) snprintf(text, sizeof text, "path frame %s", f->name);
     else snprintf(text, sizeof text, "held out: %s", r->scene->cameras[f->index].name);

@@ -20,6 +20,7 @@
 
 const char *const report_model_names[N_MODELS] = {"sparse", "restored", "refined"};
 const char *const report_image_names[N_IMAGES] = {"render", "restored", "refined", "ground_truth"};
+const char *const report_decision_names[N_DECISIONS] = {"adaptation", "restoration", "refinement"};
 
 typedef struct {
     const char *path; /* the file, for messages */
@@ -357,6 +358,39 @@ static int read_consistency(reader *r, const cJSON *run, report_run *out)
     return rc;
 }
 
+/* "decisions": {"restore_with", "gate", "adaptation": {"ran", "why"} | null, ...}; absent in
+ * files from before they were recorded. */
+static int read_decisions(reader *r, const cJSON *run, report_run *out)
+{
+    int bad;
+    const cJSON *d = object_or_null(r, run, "decisions", 0, &bad);
+    if (bad || !d) return bad ? -1 : 0;
+    size_t at = strlen(r->where);
+    enter(r, ".decisions");
+    int rc = 0;
+    if (member(r, d, "restore_with", 0)) rc = read_string(r, d, "restore_with", 1, out->restore_with, sizeof out->restore_with);
+    if (rc == 0 && member(r, d, "gate", 0)) rc = read_string(r, d, "gate", 1, out->gate, sizeof out->gate);
+    for (int k = 0; k < N_DECISIONS && rc == 0; k++) {
+        const cJSON *v = object_or_null(r, d, report_decision_names[k], 0, &bad);
+        if (bad) rc = -1;
+        if (rc || !v) continue;
+        report_decision *dec = &out->decisions[k];
+        const cJSON *ran = member(r, v, "ran", 0);
+        if (!cJSON_IsBool(ran)) {
+            enter(r, ".%s", report_decision_names[k]);
+            rc = bad_key(r, "ran", "expected true or false");
+            break;
+        }
+        dec->ran = cJSON_IsTrue(ran);
+        enter(r, ".%s", report_decision_names[k]);
+        rc = read_string(r, v, "why", 1, dec->why, sizeof dec->why);
+        leave(r, at + strlen(".decisions"));
+        dec->present = rc == 0;
+    }
+    leave(r, at);
+    return rc;
+}
+
 static int read_run(reader *r, const cJSON *run, report_run *out)
 {
     char path[16];
@@ -396,6 +430,7 @@ static int read_run(reader *r, const cJSON *run, report_run *out)
     }
     if (read_consistency(r, run, out) != 0) return -1;
     if (read_restorer(r, run, &out->restorer) != 0) return -1;
+    if (read_decisions(r, run, out) != 0) return -1;
     read_inputs(run, out->inputs, sizeof out->inputs);
     return read_stages(r, run, out);
 }
@@ -414,6 +449,7 @@ static int read_document(reader *r, const cJSON *root, report_metrics *m)
     if (read_int(r, root, "width", 1, 1 << 16, &m->width) != 0) return -1;
     if (read_int(r, root, "height", 1, 1 << 16, &m->height) != 0) return -1;
     if (read_restorer(r, root, &m->restorer) != 0) return -1;
+    if (member(r, root, "preset", 0) && read_string(r, root, "preset", 1, m->preset, sizeof m->preset) != 0) return -1;
     const cJSON *runs = member(r, root, "runs", 1);
     if (!runs) return -1;
     if (!cJSON_IsArray(runs)) return bad_key(r, "runs", "expected an array, found %s", gv_json_type(runs));

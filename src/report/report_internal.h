@@ -44,6 +44,15 @@ typedef struct {
     char training_scenes[8192]; /* comma-separated; "" when null or absent (not recorded) */
 } report_restorer;
 
+/* One of a run's "decisions" (metrics.json): adaptation, restoration, refinement. */
+enum { DECISION_ADAPTATION, DECISION_RESTORATION, DECISION_REFINEMENT, N_DECISIONS };
+extern const char *const report_decision_names[N_DECISIONS];
+typedef struct {
+    int present;                /* 0: not decided yet, or a file from before decisions were recorded */
+    int ran;
+    char why[1024];             /* "" when it ran */
+} report_decision;
+
 typedef struct {
     int interval;
     int smooth;                 /* "path": "smooth" (no ground truth) or "held-out" */
@@ -60,6 +69,9 @@ typedef struct {
     double consistency[N_MODELS]; /* its mean PSNR per set, NAN where null */
     report_restorer restorer;   /* what restored this run, when the run says */
     char inputs[1024];          /* the run's options as "key value, ..." ("" when not recorded) */
+    char restore_with[32];      /* "decisions"."restore_with" ("" when not recorded) */
+    char gate[16];              /* "decisions"."gate": "open", "closed", "" (none) */
+    report_decision decisions[N_DECISIONS];
     int n_stages;
     report_stage *stages;
 } report_run;
@@ -67,6 +79,7 @@ typedef struct {
 typedef struct {
     char scene[256];
     char scene_dir[4096];
+    char preset[32];            /* the preset of the last run ("" when not recorded) */
     int width, height;
     report_restorer restorer;
     int n_runs;
@@ -96,6 +109,8 @@ void text_free(report_text *t);
 int text_write_atomic(const report_text *t, const char *path);
 
 /* ---- the page's parts ----------------------------------------------------------------- */
+/* A run's decisions in words, one sentence each ("" when none is recorded). */
+void report_decisions_text(const report_run *run, char *out, size_t size);
 /* The per-n table of PSNR / SSIM (/ LPIPS) with the changes against the sparse model. */
 void report_table(report_text *t, const report_metrics *m);
 /* The per-frame PSNR of the three models along the path, as inline SVG. */

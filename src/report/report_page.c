@@ -152,6 +152,13 @@ static int run_section(report_text *t, const char *dir, const report_metrics *m,
         text_escaped(t, run->inputs);
         text_append(t, "</p>\n");
     }
+    char decisions[4096];
+    report_decisions_text(run, decisions, sizeof decisions);
+    if (decisions[0]) {
+        text_append(t, "<p class=\"decisions\"><b>Decided:</b> ");
+        text_escaped(t, decisions);
+        text_append(t, ".</p>\n");
+    }
     if (run->restorer.present && !(m->restorer.present && same_restorer(&run->restorer, &m->restorer))) {
         text_append(t, "<h3>Restorer of this run</h3>\n");
         restorer_table(t, &run->restorer, m->scene);

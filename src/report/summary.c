@@ -22,6 +22,29 @@ static void change_words(double change, char *out, size_t size)
         snprintf(out, size, "unchanged (%+.3f dB)", change);
 }
 
+void report_decisions_text(const report_run *run, char *out, size_t size)
+{
+    static const char *const kept[N_DECISIONS] = {"", "the restored frames are the renders",
+                                                  "the refined model is the sparse model"};
+    static const char *const label[N_DECISIONS] = {"adaptation", "restoration", "refinement"};
+    size_t used = 0;
+    out[0] = '\0';
+#define ADD(...) (used < size ? used += (size_t)snprintf(out + used, size - used, __VA_ARGS__) : 0)
+    if (!strcmp(run->restore_with, "none")) {
+        snprintf(out, size, "no restoration or refinement (--no-restore): the sparse model only");
+        return;
+    }
+    if (run->restore_with[0]) ADD("restoration mode %s", run->restore_with);
+    for (int k = 0; k < N_DECISIONS; k++) {
+        const report_decision *d = &run->decisions[k];
+        if (!d->present) continue;
+        if (d->ran) ADD("%s%s ran", used ? "; " : "", label[k]);
+        else ADD("%s%s skipped (%s)%s%s", used ? "; " : "", label[k], d->why, kept[k][0] ? ": " : "", kept[k]);
+        if (k == DECISION_ADAPTATION && run->gate[0]) ADD("; the gate is %s", run->gate);
+    }
+#undef ADD
+}
+
 /* Prints path when the file exists, else says it is missing (a stopped run). */
 static void where(FILE *out, const char *label, const char *dir, const char *rel)
 {
@@ -59,17 +82,24 @@ static void run_summary(FILE *out, const char *dir, const report_run *run)
         char restored[64], refined[64];
         change_words(run->means[MODEL_RESTORED].psnr - run->means[MODEL_SPARSE].psnr, restored, sizeof restored);
         change_words(run->means[MODEL_REFINED].psnr - run->means[MODEL_SPARSE].psnr, refined, sizeof refined);
-        fprintf(out, "  against the sparse renders the restored frames are %s, the refined model's %s\n", restored,
-                refined);
+        if (run->means[MODEL_RESTORED].present && run->means[MODEL_REFINED].present)
+            fprintf(out, "  against the sparse renders the restored frames are %s, the refined model's %s\n", restored,
+                    refined);
         const char *gate = run->restorer.present ? run->restorer.gate : "";
-        if (!strcmp(gate, "closed"))
+        char decisions[4096];
+        report_decisions_text(run, decisions, sizeof decisions);
+        if (decisions[0]) fprintf(out, "  decided: %s\n", decisions);
+        else if (!strcmp(gate, "closed"))
             fprintf(out, "  the adaptation's gate is closed (its held-back views did not gain): the renders were kept\n");
         else if (!strcmp(gate, "open"))
             fprintf(out, "  the adaptation's gate is open (its held-back views gained): the renders were restored\n");
-        if (run->has_all_held_out && run->all_held_out[MODEL_SPARSE].frames > run->means[MODEL_SPARSE].frames)
-            fprintf(out, "  all %d held-out views (also those after the last training view): sparse %.2f, refined %.2f dB\n",
-                    run->all_held_out[MODEL_SPARSE].frames, run->all_held_out[MODEL_SPARSE].psnr,
-                    run->all_held_out[MODEL_REFINED].psnr);
+        if (run->has_all_held_out && run->all_held_out[MODEL_SPARSE].frames > run->means[MODEL_SPARSE].frames) {
+            fprintf(out, "  all %d held-out views (also those after the last training view): sparse %.2f",
+                    run->all_held_out[MODEL_SPARSE].frames, run->all_held_out[MODEL_SPARSE].psnr);
+            if (run->all_held_out[MODEL_REFINED].present)
+                fprintf(out, ", refined %.2f", run->all_held_out[MODEL_REFINED].psnr);
+            fprintf(out, " dB\n");
+        }
     }
     char line[256];
     report_consistency_line(run, line, sizeof line);
@@ -88,8 +118,11 @@ int gv_report_summary(const char *dir, FILE *out)
     report_metrics m;
     if (report_metrics_read(path, &m) != 0) return -1;
     int adapted = m.restorer.present && !strcmp(m.restorer.kind, "scene");
-    fprintf(out, "\n%s, restored by %s%s:\n", m.scene, m.restorer.present ? m.restorer.checkpoint : "(no restorer recorded)",
-            adapted ? " adapted to the scene" : "");
+    if (m.restorer.present)
+        fprintf(out, "\n%s, restorer %s%s:\n", m.scene, m.restorer.checkpoint,
+                adapted ? ", adapted to the scene where it has the views for it" : "");
+    else
+        fprintf(out, "\n%s, the sparse model only (no restorer):\n", m.scene);
     for (int i = 0; i < m.n_runs; i++) run_summary(out, dir, &m.runs[i]);
     where(out, "report", dir, "report.html");
     where(out, "numbers", dir, "metrics.json");

@@ -44,7 +44,7 @@ void gv_adapt_defaults(gv_adapt_options *o)
 /* The base: a checkpoint (not a scene's) of the network o->config names, whose VAE gives each
  * frame its own latent frame, so that the masked frames of the internal clips leave the
  * left-out view's latent frame supervised. */
-static int check_base(const gv_adapt_options *o)
+int gv_adapt_check_base(const gv_adapt_options *o)
 {
     gv_model_config base, want;
     gv_train_state s;
@@ -293,7 +293,7 @@ int gv_adapt_scene(const gv_adapt_options *o, gv_adapt_report *r)
         r->done = r->already = 1;
         return 0;
     }
-    if (check_base(o)) return -1;
+    if (gv_adapt_check_base(o)) return -1;
     adapt_run x;
     memset(&x, 0, sizeof x);
     int rc = run_stages(o, r->work_dir, &x, r);

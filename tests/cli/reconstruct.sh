@@ -5,7 +5,9 @@
 # it names; the means of its frames); --stop-after stops; a rerun skips finished stages, redoes
 # from a stage whose files are gone and refuses other inputs; the refinement's feedback path
 # (restored frames replaced by the ground truth beat restored frames replaced by the renders);
-# the smooth path of n = 1; the adapt stage; bad input gives one line and a non-zero exit.
+# the smooth path of n = 1; the adapt stage; the gated default (a scene with too few views to
+# adapt keeps the sparse model; a closed gate skips restoration and refinement); --no-restore;
+# the presets and the flags over them; bad input gives one line and a non-zero exit.
 # Usage: bash reconstruct.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup reconstruct "$1"
@@ -28,12 +30,17 @@ command -v ffmpeg >/dev/null && HAVE_FFMPEG=1
 [ $HAVE_FFMPEG = 1 ] || echo "reconstruct.sh: ffmpeg is not installed (scripts/setup.sh): the video stage is not tested"
 LAST=video
 [ $HAVE_FFMPEG = 1 ] || LAST=evaluate
-RC=(--scene S --interval 6 --ckpt base.safetensors --iters 60 --refine-iters 40 --threads 2)
+# RC0: the gated default; RC: today's ungated restoration with the checkpoint as it is, which
+# most of the stage-by-stage checks below use (it restores without an adaptation first).
+RC0=(--scene S --interval 6 --ckpt base.safetensors --iters 60 --refine-iters 40 --threads 2)
+RC=("${RC0[@]}" --restore-with checkpoint)
 
 # Help and usage errors.
 expect 0 "help" -- "$G" reconstruct --help
 has "usage: gaussvid reconstruct"
 has "--stop-after"
+has "--preset NAME"
+has "--no-restore"
 expect 0 "listed" -- "$G" help
 has "reconstruct"
 expect 2 "no scene" -- "$G" reconstruct --interval 6 --out X
@@ -57,7 +64,42 @@ expect 1 "no ffmpeg" -- "$G" reconstruct "${RC[@]}" --ffmpeg ./no-ffmpeg --out X
 one_line "no-ffmpeg"
 expect 1 "weight" -- "$G" reconstruct "${RC[@]}" --refine-weight 2 --out X
 one_line "--refine-weight 2"
+expect 2 "bad preset" -- "$G" reconstruct "${RC0[@]}" --preset turbo --out X
+one_line "--preset turbo: expected fast, default or best"
+expect 2 "bad mode" -- "$G" reconstruct "${RC0[@]}" --restore-with magic --out X
+one_line "--restore-with magic: expected adapted, checkpoint or none"
+expect 2 "two modes" -- "$G" reconstruct "${RC[@]}" --no-restore --out X
+one_line "--no-restore and --restore-with checkpoint: choose one"
+expect 2 "adapt and no restore" -- "$G" reconstruct "${RC0[@]}" --adapt --no-restore --out X
+one_line "--adapt and --no-restore: choose one"
+expect 1 "stop after restore without restoring" -- "$G" reconstruct "${RC0[@]}" --no-restore --stop-after restore --out X
+one_line "--stop-after restore: --no-restore has no restore stage"
+# The default path adapts the checkpoint: one it cannot adapt (another network than
+# --adapt-config, small by default) is refused before any training.
+expect 1 "a checkpoint the default path cannot adapt" -- "$G" reconstruct "${RC0[@]}" --out X
+one_line "base.safetensors: a checkpoint of another network (tiny1"
+check "the line names the way out" grep -qF -- "--restore-with checkpoint restores with it as it is" "$T/err"
 check "nothing written on bad input" test ! -e X
+
+# The presets: the first line names the preset and the settings it resulted in (printed
+# before the scene is read, so a missing scene shows them without training).
+first_line() { head -n 1 "$T/out"; }
+expect 1 "preset fast" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset fast
+check "fast: lean, 3000 iterations, no restoration" test "$(first_line)" = \
+    "reconstruct, preset fast: 3000 sparse iterations (lean density control), no restoration (the sparse model only)"
+expect 1 "preset default" -- "$G" reconstruct --scene nowhere --interval 6 --out X
+check "default: the paper's 3DGS and the gated path" test "$(first_line)" = "reconstruct, preset default: 8000 sparse \
+iterations (reference density control), models/gaussvid-small.safetensors adapted to the scene (300 steps) where it has \
+the views for it, its gate deciding restoration and refinement (1000 iterations at weight 0.3)"
+expect 1 "preset best" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset best --ckpt c.st
+check "best: 15000 iterations, the gated path" test "$(first_line)" = "reconstruct, preset best: 15000 sparse \
+iterations (reference density control), c.st adapted to the scene (300 steps) where it has the views for it, its gate \
+deciding restoration and refinement (1000 iterations at weight 0.3)"
+expect 1 "flags over the preset" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset fast --iters 77 \
+    --densify reference --restore-with checkpoint --ckpt c.st --refine-iters 5
+check "every flag wins over fast" test "$(first_line)" = "reconstruct, preset fast: 77 sparse iterations (reference \
+density control), restoration with c.st as it is (ungated), refinement 5 iterations at weight 0.3"
+check "nothing written for a missing scene" test ! -e X
 
 # Stage by stage: --stop-after stops, the next run continues.
 stages() { python3 -c "import json,sys; print(' '.join(s['name'] for s in json.load(open('$1'))['runs'][0]['stages']))"; }
@@ -290,7 +332,7 @@ if [ $HAVE_FFMPEG = 1 ]; then
 fi
 
 # --adapt: the scene checkpoint made in nN/ and restore uses it.
-expect 0 "adapt" -- "$G" reconstruct "${RC[@]}" --adapt --adapt-config tiny1.json --adapt-steps 2 --out A \
+expect 0 "adapt" -- "$G" reconstruct "${RC0[@]}" --adapt --adapt-config tiny1.json --adapt-steps 2 --out A \
     --stop-after restore
 has "n=6 adapt:"
 exists A/n6/restorer.safetensors
@@ -309,12 +351,105 @@ if grep -q "gate is closed" "$T/out"; then
 fi
 # ... to the end: the summary says the restorer was adapted and what its gate decided.
 expect 0 "a scene checkpoint, to the end" -- "$G" reconstruct "${RC[@]}" --ckpt A/n6/restorer.safetensors --out SC
-has "adapted to the scene:"
-has "the adaptation's gate is"
+has "adapted to the scene where it has the views for it:"
+has "decided: restoration mode checkpoint; adaptation skipped (--restore-with checkpoint); the gate is"
 # --adapt to the end: the report's restorer is the base adapted per n, with one gate per n.
-expect 0 "adapt, to the end" -- "$G" reconstruct "${RC[@]}" --adapt --adapt-config tiny1.json --adapt-steps 2 --out A
+expect 0 "adapt, to the end" -- "$G" reconstruct "${RC0[@]}" --adapt --adapt-config tiny1.json --adapt-steps 2 --out A
 check "the report: one gate per n" grep -q "one per n: see each interval" A/report.html
-expect 1 "stop after adapt without --adapt" -- "$G" reconstruct "${RC[@]}" --out A --stop-after adapt
-one_line "--stop-after adapt: the adapt stage runs only with --adapt"
+# The gate decides: closed, restore and refine are skipped (the renders and the sparse model
+# pass through, bit for bit); open, both run. metrics.json, the summary and the report say which.
+cat >check_gate.py <<'PY'
+import filecmp, json, sys
+root, n = sys.argv[1], int(sys.argv[2])
+run = [r for r in json.load(open(root + "/metrics.json"))["runs"] if r["interval"] == n][0]
+d, stages = run["decisions"], {s["name"]: s for s in run["stages"]}
+assert d["restore_with"] == "adapted" and d["adaptation"] == {"ran": True, "why": None}, d
+opened = d["gate"] == "open"
+assert d["gate"] in ("open", "closed") and d["gate"] == run["restorer"]["gate"], d
+assert d["restoration"]["ran"] == opened and d["refinement"]["ran"] == opened, d
+frames = [f["frame"] for f in run["frames"]]
+same = lambda a, b: all(filecmp.cmp("%s/n%d/frames/%s/frame_%05d.png" % (root, n, a, f),
+                                    "%s/n%d/frames/%s/frame_%05d.png" % (root, n, b, f), shallow=False) for f in frames)
+if not opened:
+    assert d["restoration"]["why"].startswith("the gate is closed (held-back pairs "), d
+    assert stages["restore"]["summary"].startswith("skipped: the gate is closed"), stages["restore"]
+    assert stages["refine"]["summary"] == "skipped: nothing was restored; the refined model is the sparse model"
+    assert d["refinement"]["why"] == "nothing was restored", d
+    assert same("render", "restored") and same("render", "refined"), "the renders pass through"
+    assert filecmp.cmp("%s/n%d/sparse.ply" % (root, n), "%s/n%d/refined.ply" % (root, n), shallow=False)
+    assert run["gaussians"]["refined"] == run["gaussians"]["sparse"]
+    m = run["means"]
+    assert m["restored"]["psnr"] == m["sparse"]["psnr"] == m["refined"]["psnr"], m
+else:
+    assert "the gate is open" in stages["restore"]["summary"], stages["restore"]
+    assert d["restoration"]["why"] is None and d["refinement"]["why"] is None, d
+print(d["gate"])
+PY
+check "the gate's decision is kept" python3 check_gate.py A 6
+has "decided: restoration mode adapted; adaptation ran; the gate is"
+check "the report says what was decided" grep -q "<b>Decided:</b> restoration mode adapted; adaptation ran; the gate is" A/report.html
+
+# The gated default where the scene has too few training views to adapt (n = 8: 4 views;
+# the internal pairs need 5): the sparse model is kept, one line says why, no network runs.
+expect 0 "too few views to adapt" -- "$G" reconstruct "${RC0[@]}" --interval 8 --out F --stop-after $LAST
+has "n=8 restore: skipped: adaptation cannot run here (25 frames give 4 training views at n = 8"
+check "one stage line for it" test "$(grep -c "^n=8 .*adaptation cannot run here" "$T/out")" -eq 1
+has "n=8 refine: skipped: nothing was restored; the refined model is the sparse model"
+check "no adapt stage, no scene checkpoint" test ! -e F/n8/restorer.safetensors
+check "the sparse model kept" python3 -c "
+import filecmp, json
+run = json.load(open('F/metrics.json'))['runs'][0]
+d = run['decisions']
+assert d['restore_with'] == 'adapted' and d['gate'] is None, d
+assert not d['adaptation']['ran'] and d['adaptation']['why'].startswith('cannot run here: 25 frames give 4 training views'), d
+assert d['restoration'] == {'ran': False, 'why': 'adaptation cannot run here'}, d
+assert d['refinement'] == {'ran': False, 'why': 'nothing was restored'}, d
+assert not d['refinement']['ran'], d
+assert [s['name'] for s in run['stages']] == ['train', 'render', 'restore', 'refine', 'evaluate'] + (['video'] if $HAVE_FFMPEG else [])
+for f in run['frames']:
+    for kind in ('restored', 'refined'):
+        assert filecmp.cmp('F/' + f['images']['render'], 'F/' + f['images'][kind], shallow=False), (f, kind)
+        assert f[kind] == f['sparse'], (f, kind)
+assert filecmp.cmp('F/n8/sparse.ply', 'F/n8/refined.ply', shallow=False)
+assert run['all_held_out']['refined'] == run['all_held_out']['sparse']"
+has "decided: restoration mode adapted; adaptation skipped (cannot run here: 25 frames give 4 training views at n = 8 \
+(frames 0, 8, ...); scene-internal pairs need at least 5 (at least 33 frames)); restoration skipped (adaptation cannot \
+run here): the restored frames are the renders; refinement skipped (nothing was restored): the refined model is the sparse model"
+
+# --no-restore: the sparse model, its renders, evaluation, video and report; no restorer is
+# needed (the checkpoint named does not exist) and no restored or refined frame is written.
+expect 0 "no restore" -- "$G" reconstruct "${RC0[@]}" --no-restore --ckpt none.safetensors --out NR --stop-after $LAST
+check "no restored or refined frames" test ! -e NR/n6/frames/restored -a ! -e NR/n6/frames/refined -a ! -e NR/n6/refined.ply
+check "the same sparse model as the full path" cmp -s NR/n6/sparse.ply R/n6/sparse.ply
+check "no-restore's metrics" python3 -c "
+import json
+d = json.load(open('NR/metrics.json')); run = d['runs'][0]; full = json.load(open('R/metrics.json'))['runs'][0]
+assert d['restorer'] is None and run['inputs']['restore_with'] == 'none'
+assert [s['name'] for s in run['stages']] == ['train', 'render', 'evaluate'] + (['video'] if $HAVE_FFMPEG else [])
+assert all(run['decisions'][k] == {'ran': False, 'why': '--no-restore'} for k in ('adaptation', 'restoration', 'refinement'))
+assert run['means']['restored'] is None and run['means']['refined'] is None and run['all_held_out']['refined'] is None
+assert run['means']['sparse'] == full['means']['sparse'], (run['means'], full['means'])
+for f in run['frames']:
+    assert f['images']['restored'] is None and f['images']['refined'] is None and f['restored'] is None and f['refined'] is None"
+has "decided: no restoration or refinement (--no-restore): the sparse model only"
+if [ $HAVE_FFMPEG = 1 ]; then
+    exists NR/report.html
+    check "the report says it" grep -q "<b>Decided:</b> no restoration or refinement (--no-restore)" NR/report.html
+    check "the no-restore video is render | ground truth" test "$(ffprobe -v error -count_frames -select_streams v:0 \
+        -show_entries stream=nb_read_frames,width,height -of csv=p=0 NR/n6/flythrough.mp4)" = "128,48,20"
+fi
+
+# A preset and a flag over it, recorded: fast (lean, no restoration) with 50 iterations.
+expect 0 "fast with 50 iterations" -- "$G" reconstruct "${RC0[@]}" --preset fast --iters 50 --out FA --stop-after evaluate
+check "the first line" test "$(first_line)" = \
+    "reconstruct, preset fast: 50 sparse iterations (lean density control), no restoration (the sparse model only)"
+check "the preset and its settings recorded" python3 -c "
+import json
+d = json.load(open('FA/metrics.json')); i = d['runs'][0]['inputs']
+assert d['preset'] == 'fast' and i['preset'] == 'fast', d
+assert (i['iters'], i['densify'], i['restore_with']) == (50, 'lean', 'none'), i
+assert d['runs'][0]['stages'][0]['summary'].endswith('50 iterations'), d['runs'][0]['stages'][0]"
+expect 1 "stop after adapt, ungated" -- "$G" reconstruct "${RC[@]}" --out A --stop-after adapt
+one_line "--stop-after adapt: the adapt stage runs only with --restore-with adapted (the default)"
 
 cli_finish
