@@ -9,7 +9,7 @@
 
 #include "check.h"
 #include "test_restore_fixtures.h"
-#include "gaussvid/plucker.h"
+#include "gaussvid/model/plucker.h"
 
 #define W 32
 #define H 32

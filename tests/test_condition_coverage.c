@@ -9,7 +9,7 @@
 
 #include "check.h"
 #include "test_restore_fixtures.h"
-#include "gaussvid/coverage.h"
+#include "gaussvid/splat/coverage.h"
 
 #define W 32
 #define H 32

@@ -5,10 +5,10 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/splat_train.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/splat/splat_train.h"
+#include "gaussvid/io/safetensors.h"
 
 /* ---- sampling ----------------------------------------------------------------------- */
 

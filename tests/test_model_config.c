@@ -4,8 +4,8 @@
 #include <cjson/cJSON.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/model_config.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/model_config.h"
 
 static const char *tmp;
 

@@ -5,7 +5,7 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/model/vae.h"
 #include "model_testutil.h"
 
 /* One no-grad forward; returns a malloc'd copy of the output (numel in *n), or NULL. */

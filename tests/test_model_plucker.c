@@ -2,8 +2,8 @@
  * invariance of the encoder's input under a global rigid motion and a global scale of all
  * cameras, the temporal packing, and bad cameras. */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/plucker.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/plucker.h"
 
 static gv_camera camera(double fx, double cx, const double R[9], const double t[3])
 {

@@ -3,10 +3,10 @@
  * shapes spot-checked against the reference's lists, this project's camera and LoRA tensors,
  * and the check of safetensors files (missing, unexpected, mis-shaped, duplicated). */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/model_config.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/weight_names.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/weight_names.h"
 
 static const char *tmp;
 

@@ -11,9 +11,9 @@
 #include "check.h"
 #include "model_testutil.h"
 #include "test_restore_fixtures.h"
-#include "gaussvid/eval.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/restore.h"
+#include "gaussvid/eval/eval.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/restore/restore.h"
 
 #define W 32
 #define H 32

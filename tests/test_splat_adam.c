@@ -2,8 +2,8 @@
  * computation of PyTorch's formula, the reference learning rates and position schedule,
  * dense vs listed rows, group masks and the active SH coefficients. */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* PyTorch Adam on one value, in double: returns the new parameter. */
 typedef struct { double p, m, v; } ref_state;

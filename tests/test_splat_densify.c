@@ -3,8 +3,8 @@
  * the Adam moments that follow each row, and the opacity reset
  * (docs/reference/gaussian-splatting.md 14.2-14.3). */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 enum { W = 12 }; /* SH floats per Gaussian at degree 1 */
 

@@ -6,9 +6,9 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/splat/splat_train.h"
 
 enum { MAXW = 40, MAXH = 30 };
 

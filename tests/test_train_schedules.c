@@ -1,12 +1,12 @@
-/* Training schedules (include/gaussvid/train.h) on hand-derived values: the flow-matching path
- * and target, the shift, the reference's pretraining grid and weights, the progressive latent
+/* Training schedules (include/gaussvid/train/train.h) on hand-derived values: the flow-matching
+ * path and target, the shift, the reference's pretraining grid and weights, the progressive latent
  * weight, the curriculum's difficulty, threshold, soft weight and batch choice, and the data
  * order's permutations, and a step's draws. */
 #include <string.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/train.h"
 #include "train/train_internal.h"
 
 static void test_flow(void)

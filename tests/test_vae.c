@@ -1,4 +1,4 @@
-/* The causal 3D VAE (include/gaussvid/vae.h): the Wan presets' tensors match the published
+/* The causal 3D VAE (include/gaussvid/model/vae.h): the Wan presets' tensors match the published
  * list exactly (names, shapes, 126.9 M parameters) without allocating them; temporal packing
  * shapes; causality (a latent frame does not depend on later input frames, exactly); chunked
  * encoding and decoding through the caches equal one-shot; a gradient check of the tiny
@@ -7,10 +7,10 @@
 
 #include "check.h"
 #include "nn_testutil.h"
-#include "gaussvid/core.h"
-#include "gaussvid/nn.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/nn.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/vae.h"
 #include "model/vae_internal.h"
 
 static const char *tmp;

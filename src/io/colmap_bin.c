@@ -12,8 +12,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "gaussvid/colmap.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/colmap.h"
+#include "gaussvid/core/core.h"
 
 /* Fixed part of each record, used to bound counts by the file size. */
 enum { CAMERA_MIN_BYTES = 24, IMAGE_MIN_BYTES = 64 + 1 + 8, POINT2D_BYTES = 24,

@@ -9,8 +9,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/colmap.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/colmap.h"
+#include "gaussvid/core/core.h"
 
 #define MAX_IMAGE_SIDE 1000000
 

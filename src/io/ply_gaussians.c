@@ -8,8 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
 #include "io/ply_header.h"
 
 enum { MAX_REST = 45 };  /* 3 * (16 - 1): degree 3 */

@@ -6,8 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
 
 #define SH_C0 0.28209479177387814  /* docs/reference/gaussian-splatting.md section 8: the degree-0
                                       SH basis constant */

@@ -17,8 +17,8 @@
  *
  * Layout: planes[m][c][y][x] for the filtered maps; rows are processed in parallel over
  * (channel, row) pairs. */
-#include "gaussvid/metrics.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <omp.h>

@@ -7,7 +7,7 @@
  * then x_c = gamma LayerNorm(proj.2(SiLU(proj.0(F)))) with proj.2 zero-initialised and gamma
  * learnable from gamma_init, so x_c = 0 exactly at initialisation. */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 /* The authors' nn.LayerNorm(D) keeps PyTorch's default epsilon. */
 #define CAMERA_NORM_EPS 1e-5f

@@ -2,8 +2,8 @@
  * docs/reference/wan-vace-gaussvid.md 1.4 and 6.1): unit directions and moments per pixel centre,
  * relative to the first anchor camera, translations divided by a per-clip length, packed in time
  * like the VAE packs frames. */
-#include "gaussvid/plucker.h"
-#include "gaussvid/core.h"
+#include "gaussvid/model/plucker.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,7 +1,7 @@
 /* Model configs: validation, variants, equality and derived sizes. The JSON form is in
  * config_json.c, the built-in presets in config_presets.c, the format in docs/MODEL.md. */
-#include "gaussvid/model_config.h"
-#include "gaussvid/core.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/core/core.h"
 #include "model/config_internal.h"
 
 #include <math.h>

@@ -1,9 +1,9 @@
 /* The JSON form of a model config (docs/MODEL.md): strict parsing, where every unknown key,
  * duplicate key, wrong type or bad value gives one line naming the file and the key, and
  * the canonical writer (every field, fixed order) used for files and checkpoint metadata. */
-#include "gaussvid/model_config.h"
-#include "gaussvid/core.h"
-#include "gaussvid/json.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/json.h"
 #include "model/config_internal.h"
 
 #include <cjson/cJSON.h>

@@ -1,8 +1,8 @@
 /* The built-in model presets (also shipped as configs/<name>.json; docs/MODEL.md explains
  * the choices). The Wan presets use the published numbers of the reference's sections 2.1,
  * 3.1, 4.1 and 4.5; their camera encoder uses the authors' sizes (section 1.4). */
-#include "gaussvid/model_config.h"
-#include "gaussvid/core.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/core/core.h"
 #include "model/config_internal.h"
 
 #include <stdio.h>

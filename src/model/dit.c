@@ -2,7 +2,7 @@
  * docs/ARCHITECTURE.md 6.3-6.6): patch embedding, time and text embeddings, the camera tokens of
  * the chosen variant, VACE hints, the main blocks, the head and unpatchify. */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <stdlib.h>

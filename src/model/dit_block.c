@@ -9,7 +9,7 @@
  * this way is exactly the asymmetric mask of the paper; gv_dit_block_joint computes the masked
  * form literally (the reference the tests compare with). */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 

@@ -3,7 +3,7 @@
 #ifndef GAUSSVID_MODEL_DIT_INTERNAL_H
 #define GAUSSVID_MODEL_DIT_INTERNAL_H
 
-#include "gaussvid/dit.h"
+#include "gaussvid/model/dit.h"
 
 /* y = x W^T + b, plus the LoRA update when the layer has an adapter and it is not merged. */
 gv_tensor *gv_dit_lin(gv_graph *g, const gv_dit *m, const gv_dit_linear *l, gv_tensor *x);

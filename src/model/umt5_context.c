@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/umt5.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/umt5.h"
 
 int gv_umt5_text_context(const gv_umt5_config *c, const gv_st_file *f, const gv_tokenizer *t, const char *prompt,
                          int text_len, float *out, int32_t *ids)

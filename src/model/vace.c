@@ -3,7 +3,7 @@
  * and the construction of that context. For restoration M = 0 on the anchors and 1 on the frames to
  * restore; the anchors variant (docs/ARCHITECTURE.md 6.6) chooses which end frames are anchors. */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <string.h>

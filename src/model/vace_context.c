@@ -6,9 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/dit.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/dit.h"
+#include "gaussvid/model/vae.h"
 
 int gv_vace_context_build_masked(gv_vae *v, const float *video, int frames, int height, int width,
                                  const float *mask, float *out)

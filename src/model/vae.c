@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/vae.h"
 #include "model/vae_internal.h"
 
 int gv_vae_latent_frames(const gv_vae_config *c, int frames, int *latent_frames)

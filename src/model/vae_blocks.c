@@ -10,7 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "model/vae_internal.h"
 
 int gv_vae_stream_init(gv_vae_stream *s, int n_slots)

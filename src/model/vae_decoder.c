@@ -6,7 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "model/vae_internal.h"
 
 static int has_scale(const gv_vae_config *v, double scale)

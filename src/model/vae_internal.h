@@ -4,9 +4,9 @@
 #ifndef GAUSSVID_VAE_INTERNAL_H
 #define GAUSSVID_VAE_INTERNAL_H
 
-#include "gaussvid/ops.h"
-#include "gaussvid/vae.h"
-#include "gaussvid/weight_names.h"
+#include "gaussvid/nn/ops.h"
+#include "gaussvid/model/vae.h"
+#include "gaussvid/model/weight_names.h"
 
 /* Wan's RMS_norm clamps the channel norm at 1e-12 (F.normalize),
  * docs/reference/wan-vace-gaussvid.md 4.2. */

@@ -9,7 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "model/vae_internal.h"
 
 static gv_tensor dry_run_tensor; /* stands for every tensor in a dry run (never read) */

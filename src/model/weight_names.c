@@ -2,8 +2,8 @@
  * checkpoint keys (docs/reference/wan-vace-gaussvid.md 2.8 and 3.1), this project's camera encoder
  * and LoRA adapters (docs/MODEL.md), and the list's lookup and counting. The VAE is in
  * weight_names_vae.c. */
-#include "gaussvid/weight_names.h"
-#include "gaussvid/core.h"
+#include "gaussvid/model/weight_names.h"
+#include "gaussvid/core/core.h"
 #include "model/config_internal.h"
 #include "model/weight_names_internal.h"
 

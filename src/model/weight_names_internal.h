@@ -2,7 +2,7 @@
 #ifndef GAUSSVID_WEIGHT_NAMES_INTERNAL_H
 #define GAUSSVID_WEIGHT_NAMES_INTERNAL_H
 
-#include "gaussvid/weight_names.h"
+#include "gaussvid/model/weight_names.h"
 
 /* Appends one tensor "prefix.suffix" (prefix may be ""). Fails when out of memory or when
  * the name does not fit. */

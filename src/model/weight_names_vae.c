@@ -3,8 +3,8 @@
  * indices count every module, parameterless ones (SiLU, dropout, zero padding, upsampling)
  * included, so a residual block's convolutions are residual.2 and residual.6 and a resample's
  * convolution is resample.1. */
-#include "gaussvid/weight_names.h"
-#include "gaussvid/core.h"
+#include "gaussvid/model/weight_names.h"
+#include "gaussvid/core/core.h"
 #include "model/weight_names_internal.h"
 
 #include <stdio.h>

@@ -18,7 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "io/safetensors_internal.h"
 
 /* ---- objects and their arena ----------------------------------------------------------- */

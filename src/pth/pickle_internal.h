@@ -11,7 +11,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "gaussvid/safetensors.h"
+#include "gaussvid/io/safetensors.h"
 
 /* Bounds that hold long before a real state dict is near them (Wan2.1-VACE-14B's would be
  * about 100 KB of pickle and a few MB of objects): they keep a hostile file from making the

@@ -14,8 +14,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/pth/weight_files.h"
 #include "pth/pickle_internal.h"
 #include "io/safetensors_internal.h"
 #include "pth/zip_internal.h"

@@ -8,8 +8,8 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/pth/weight_files.h"
 #include "io/safetensors_internal.h"
 
 int gv_weights_open(gv_st_file *f, const char *path)

@@ -11,7 +11,7 @@
 #include <string.h>
 #include <zlib.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 enum {
     EOCD_SIG = 0x06054b50, EOCD_SIZE = 22,

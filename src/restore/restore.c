@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/restore.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/restore/restore.h"
+#include "gaussvid/train/train.h"
 
 uint64_t gv_restore_clip_seed(uint64_t seed, const char *clip_name)
 {

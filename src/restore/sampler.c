@@ -5,10 +5,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/restore.h"
-#include "gaussvid/tensor.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/restore/restore.h"
+#include "gaussvid/nn/tensor.h"
+#include "gaussvid/train/train.h"
 
 gv_sampler gv_sampler_default(void)
 {

@@ -2,8 +2,8 @@
  * downscaled in memory when the scene has no images_<k>/ folder, and of the camera's size. */
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/scene.h"
 
 /* RGB from grey+alpha or RGBA: v * a + background * (1 - a), rounded to nearest, as 3DGS
  * composites RGBA images (docs/reference/gaussian-splatting.md 18.5) on its black or white

@@ -13,8 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat.h"
 
 /* Reference clamp of a float tile coordinate: truncation towards zero, then [0, grid].
  * The float is bounded first so that the conversion is always defined. */

@@ -6,7 +6,7 @@
 #ifndef GAUSSVID_SPLAT_BLEND8_H
 #define GAUSSVID_SPLAT_BLEND8_H
 
-#include "gaussvid/splat.h"
+#include "gaussvid/splat/splat.h"
 #include "splat/simd8.h"
 
 enum { TILE_PIXELS = GV_SPLAT_TILE * GV_SPLAT_TILE };

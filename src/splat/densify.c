@@ -7,8 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 #define SPLIT_CHILDREN 2         /* densify_and_split N = 2 */
 #define SPLIT_SCALE_DIVISOR 1.6  /* scaling / (0.8 * N) */

@@ -4,9 +4,9 @@
  * ground truth, both read as v / 255. */
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/splat/splat_train.h"
 
 int gv_splat_render_camera(gv_splat_renderer *r, const gv_gaussians *g, const gv_camera *cam,
                            const float bg[3], gv_image *out)

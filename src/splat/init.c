@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 #define SH_C0 0.28209479177387814 /* Y_0^0, sh_utils.py */
 #define INIT_OPACITY 0.1          /* inverse_sigmoid(0.1 * ones) */

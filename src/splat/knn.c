@@ -9,8 +9,8 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 #define KNN_MAX_K 16
 

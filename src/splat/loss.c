@@ -27,9 +27,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/splat/splat_train.h"
 #include "splat/clones.h"
 
 #define TAPS GV_SSIM_WINDOW  /* 11 */

@@ -10,7 +10,7 @@
 
 #include <math.h>
 
-#include "gaussvid/splat.h"
+#include "gaussvid/splat/splat.h"
 #include "splat/simd8.h"
 
 enum { LANES = 8 };

@@ -21,7 +21,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "gaussvid/splat.h"
+#include "gaussvid/splat/splat.h"
 #include "splat/blend8.h"
 #include "splat/simd8.h"
 

@@ -13,9 +13,9 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/render.h"
-#include "gaussvid/splat.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/render.h"
+#include "gaussvid/splat/splat.h"
 #include "splat/blend8.h"
 #include "splat/simd8.h"
 

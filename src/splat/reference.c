@@ -6,8 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat.h"
 
 /* FNV-1a over 64-bit values: the signature of the discrete decisions. */
 static void mix(uint64_t *h, uint64_t v)

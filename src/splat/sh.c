@@ -3,7 +3,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "gaussvid/splat.h"
+#include "gaussvid/splat/splat.h"
 
 /* The reference's constants (section 8). */
 static const float SH_C0 = 0.28209479177387814f;

@@ -21,8 +21,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* gsplat's MCMC preset starts from opacity 0.5: relocation draws by opacity, and 0.1 would
  * leave the first draws to chance. */

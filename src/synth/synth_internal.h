@@ -7,8 +7,8 @@
 #include <math.h>
 #include <stdint.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/synth.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/synth/synth.h"
 
 /* ---- Vectors ------------------------------------------------------------------------- */
 typedef struct { double x, y, z; } sy_vec;

@@ -4,10 +4,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/condition.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dit.h"
-#include "gaussvid/plucker.h"
+#include "gaussvid/train/condition.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/dit.h"
+#include "gaussvid/model/plucker.h"
 
 int64_t gv_clip_latents_z_count(const gv_clip_latents *l)
 {

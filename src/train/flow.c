@@ -5,7 +5,7 @@
  * of x0 (paper eq. 6) with the same target (eq. 7). */
 #include <math.h>
 
-#include "gaussvid/train.h"
+#include "gaussvid/train/train.h"
 
 double gv_flow_shift(double sigma, double shift)
 {

@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/train.h"
 #include "train/train_internal.h"
 
 /* Step counts: docs/TRAINING.md "Budget" explains them (small preset, 2-core machine). */

@@ -4,8 +4,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/train.h"
 
 void gv_objective_inputs(const gv_clip_latents *l, gv_objective obj, float t, const float *eps, float *x_t,
                          float *target)
