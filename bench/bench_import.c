@@ -12,10 +12,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/vae.h"
-#include "gaussvid/weight_names.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/vae.h"
+#include "gaussvid/model/weight_names.h"
 
 /* Runs `gaussvid model import` (this same program) and returns its exit status and rusage. */
 static int run_import(const char *release, const char *preset, const char *out, struct rusage *ru, double *wall)

@@ -15,9 +15,9 @@
 #include <time.h>
 
 #include "bench/bench_model.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dit.h"
-#include "gaussvid/plucker.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/dit.h"
+#include "gaussvid/model/plucker.h"
 
 typedef struct {
     gv_dit m;

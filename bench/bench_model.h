@@ -10,7 +10,7 @@
 #include <stdint.h>
 #include <stdio.h>
 
-#include "gaussvid/model_config.h"
+#include "gaussvid/model/model_config.h"
 
 typedef struct {
     int json;              /* JSON instead of tables */

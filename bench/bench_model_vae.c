@@ -6,8 +6,8 @@
 #include <time.h>
 
 #include "bench/bench_model.h"
-#include "gaussvid/core.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/vae.h"
 
 static double cpu_seconds(void)
 {

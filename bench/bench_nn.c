@@ -11,8 +11,8 @@
 #include <string.h>
 
 #include "bench/bench.h"
-#include "gaussvid/core.h"
-#include "gaussvid/nn.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/nn.h"
 
 typedef int (*step_fn)(void *ctx);
 

@@ -18,11 +18,11 @@
 #include <omp.h>
 
 #include "bench/bench.h"
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/render.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/splat/render.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* The renderer's stages, then the two of the trainer. */
 enum { STAGE_LOSS = GV_STAGES, STAGE_ADAM, ALL_STAGES };

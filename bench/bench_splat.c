@@ -20,8 +20,8 @@
 #include <cjson/cJSON.h>
 
 #include "bench/bench.h"
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 enum { STAGE_PROJECT, STAGE_SH, STAGE_BINNING, STAGE_RASTER_FWD, STAGE_RASTER_BWD,
        STAGE_PROJECT_SH_BWD, STAGES };

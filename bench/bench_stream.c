@@ -21,12 +21,12 @@
 #include <unistd.h>
 
 #include "bench/bench_train.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dit.h"
-#include "gaussvid/restore.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/train.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/dit.h"
+#include "gaussvid/restore/restore.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/train/train.h"
+#include "gaussvid/model/vae.h"
 
 typedef struct {
     const char *preset, *work;

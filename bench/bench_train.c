@@ -15,10 +15,10 @@
 #include <unistd.h>
 
 #include "bench/bench_train.h"
-#include "gaussvid/core.h"
-#include "gaussvid/plucker.h"
-#include "gaussvid/restore.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/plucker.h"
+#include "gaussvid/restore/restore.h"
+#include "gaussvid/train/train.h"
 
 enum { CLIPS = 4 };
 

@@ -16,7 +16,7 @@
 #include <omp.h>
 #include <unistd.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 /* A scratch folder of this process: /dev/shm/gv-fuzz-PID (else $TMPDIR or /tmp). */
 static inline const char *fuzz_dir(void)

@@ -3,9 +3,9 @@
  * byte picks the info read, the restorer's load (network and VAE), the VAE load with the config in its
  * metadata, the LPIPS weights, or a resume (the file's network built, then restored). */
 #include "fuzz.h"
-#include "gaussvid/checkpoint.h"
-#include "gaussvid/lpips.h"
-#include "gaussvid/train.h"
+#include "gaussvid/train/checkpoint.h"
+#include "gaussvid/eval/lpips.h"
+#include "gaussvid/train/train.h"
 
 static int fuzz_one(const uint8_t *data, size_t size)
 {

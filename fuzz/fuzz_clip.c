@@ -1,7 +1,7 @@
 /* Dataset clip files (safetensors with the clip's metadata), as `train` and `dataset show`
  * read them: the first byte picks the full read or the info-only read. */
 #include "fuzz.h"
-#include "gaussvid/dataset.h"
+#include "gaussvid/data/dataset.h"
 
 static int fuzz_one(const uint8_t *data, size_t size)
 {

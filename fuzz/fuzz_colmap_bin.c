@@ -1,7 +1,7 @@
 /* COLMAP binary sparse model files, as `scene info` and `splat train` read them: the first
  * byte picks cameras.bin, images.bin or points3D.bin, the rest is the file. */
 #include "fuzz.h"
-#include "gaussvid/colmap.h"
+#include "gaussvid/io/colmap.h"
 
 static int fuzz_one(const uint8_t *data, size_t size)
 {

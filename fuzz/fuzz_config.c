@@ -1,7 +1,7 @@
 /* Model config files (JSON, docs/MODEL.md) through gv_model_config_load, as every model
  * command reads --config. */
 #include "fuzz.h"
-#include "gaussvid/model_config.h"
+#include "gaussvid/model/model_config.h"
 
 static int fuzz_one(const uint8_t *data, size_t size)
 {

@@ -1,7 +1,7 @@
 /* PNG and JPEG images through the signature dispatch every scene image goes through
  * (gv_image_read), then the RGB conversion the scene loader applies. */
 #include "fuzz.h"
-#include "gaussvid/image.h"
+#include "gaussvid/io/image.h"
 
 static int fuzz_one(const uint8_t *data, size_t size)
 {

@@ -2,7 +2,7 @@
  * the first byte picks manifest.json, a run record runs/<scene>_n<NN>.json, or the whole
  * folder through `dataset stats` (the input as manifest.json, beside one fixed run record). */
 #include "fuzz.h"
-#include "gaussvid/dataset.h"
+#include "gaussvid/data/dataset.h"
 
 static int fuzz_one(const uint8_t *data, size_t size)
 {

@@ -1,8 +1,8 @@
 /* PLY files: the first byte picks the 3DGS model reader (`splat render/eval/export`) or the
  * point-cloud reader (points3D.ply of a scene), the rest is the file. */
 #include "fuzz.h"
-#include "gaussvid/gaussians.h"
-#include "gaussvid/ply.h"
+#include "gaussvid/io/gaussians.h"
+#include "gaussvid/io/ply.h"
 
 static int fuzz_one(const uint8_t *data, size_t size)
 {

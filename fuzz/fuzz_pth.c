@@ -10,7 +10,7 @@
 #include <zlib.h>
 
 #include "fuzz_weights.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/pth/weight_files.h"
 
 enum { MAX_STORAGES = 16, MAX_ENTRIES = MAX_STORAGES + 2 };
 

@@ -5,7 +5,7 @@
  * the index, then the shards separated by "#PIECE#"; shard k of n is written under the
  * published name "diffusion_pytorch_model-0000k-of-0000n.safetensors" beside the index. */
 #include "fuzz_weights.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/pth/weight_files.h"
 
 enum { MAX_SHARDS = 8 };
 

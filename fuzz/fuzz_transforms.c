@@ -2,7 +2,7 @@
  * Without w and h the reader opens the first frame's image: none exists in the scratch folder,
  * which is one more failure path. */
 #include "fuzz.h"
-#include "gaussvid/transforms.h"
+#include "gaussvid/io/transforms.h"
 
 static int fuzz_one(const uint8_t *data, size_t size)
 {

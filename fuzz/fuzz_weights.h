@@ -5,7 +5,7 @@
 #define GAUSSVID_FUZZ_WEIGHTS_H
 
 #include "fuzz.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/io/safetensors.h"
 
 /* Inputs holding several files separate them with this (it is in the dictionaries). */
 #define FUZZ_PIECE "#PIECE#"

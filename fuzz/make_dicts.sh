@@ -49,7 +49,7 @@ json_syntax() {
       '"\x8c\x03cpu"' '"\xff\xff\xff\xff"' '"\xff\xff"' '"\x00\x00\x00\x00\x00\x00\x00\x40"' \
       '"PK\x03\x04"' '"PK\x01\x02"' '"PK\x05\x06"' '"PK\x06\x06"' '"PK\x06\x07"' '"\x01\x00\x18\x00"' \
       '"archive/"' '"data.pkl"' '"data/"' '"byteorder"' '"little"' '"big"' '"version"' '"#PIECE#"';
-  literals src/io/pickle.c | grep -vE '^"[A-Z0-9_]+"$'; } | sort -u > $D/pth.dict
+  literals src/pth/pickle.c | grep -vE '^"[A-Z0-9_]+"$'; } | sort -u > $D/pth.dict
 # sharded safetensors: the index's keys and shard names, and the safetensors dictionary.
 { cat $D/safetensors.dict; printf '%s\n' '"weight_map"' '"metadata"' '"total_size"' '"#PIECE#"' '"../"' '"/"' \
       '"diffusion_pytorch_model-00001-of-00002.safetensors"' '"diffusion_pytorch_model-00002-of-00002.safetensors"' \

@@ -3,8 +3,8 @@
  * the training views reach a measured PSNR floor and held-out views stay below them.
  * Skipped (ctest says so) when the shared data is not present. */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 int main(void)
 {

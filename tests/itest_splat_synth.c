@@ -4,9 +4,9 @@
  * 12th frame gives a lower held-out PSNR than training on every 2nd. Floors are measured
  * values minus a margin (printed). */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
-#include "gaussvid/synth.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
+#include "gaussvid/synth/synth.h"
 
 typedef struct { double train_psnr, held_psnr, held_ssim; int n; } result;
 

@@ -1,36 +1,38 @@
 #!/bin/bash
 # The modules' order (docs/LAYERS.md), written once: a file of a module may include the headers
-# of its own module and of the modules below it, never of one above. Each line: a module, the
-# modules right below it (what it may use, with everything below them), and its public headers
-# in include/gaussvid/. Fails naming every include that points up or sideways, every public
-# header no module owns, every src/ folder missing from the order, CBLAS outside src/nn/ and
+# of its own module and of the modules below it, never of one above. Each line: a module and
+# the modules right below it (what it may use, with everything below them). A module's public
+# headers are include/gaussvid/MODULE/*.h, so a header's path names its owner. Fails naming
+# every include that points up or sideways, every public header outside a module's folder,
+# every src/ or include/gaussvid/ folder missing from the order, CBLAS outside src/nn/ and
 # <mpi.h> outside src/core/dist.c.
 # Usage: bash tests/layers.sh SOURCE_DIR
 LAYERS='
-core    : -           : core camera dist
-io      : core        : image metrics gaussians ply colmap transforms safetensors weight_files npy json
-scene   : io          : scene synth reproject scene_colmap
-splat   : scene       : splat splat_train render coverage
-nn      : core        : tensor ops optim nn
-model   : io nn       : model_config dit vae plucker plucker_official weight_names umt5 release_lora
-data    : splat       : dataset internal_pairs
-train   : model data  : train condition checkpoint vae_train model_import scene_adapt
-restore : train       : restore adapt
-eval    : restore     : eval lpips consistency
-report  : scene       : report
-pipeline: eval report : pipeline
-bench   : restore     : -
-cli     : pipeline bench : -
+core    : -
+io      : core
+pth     : io
+scene   : io
+synth   : scene
+splat   : scene
+nn      : core
+model   : pth nn
+data    : splat
+train   : model data
+restore : train
+eval    : restore
+report  : scene
+pipeline: eval report
+bench   : restore
+cli     : pipeline bench synth
 '
 cd "${1:?usage: bash tests/layers.sh SOURCE_DIR}" || exit 1
-declare -A below owner allowed
+declare -A below allowed
 modules=()
-while IFS=: read -r m under headers; do
+while IFS=: read -r m under; do
     m=${m// /}
     [ -n "$m" ] || continue
     modules+=("$m")
     below[$m]=$(echo $under | tr -d -)
-    for h in $(echo $headers | tr -d -); do owner[gaussvid/$h.h]=$m; done
 done <<<"$LAYERS"
 
 # allowed[m]: m and, recursively, everything below it (modules are listed bottom up).
@@ -45,15 +47,20 @@ for d in src/*/; do
     d=$(basename "$d")
     [ -n "${allowed[$d]}" ] || bad "src/$d/ is in no layer: place it in tests/layers.sh"
 done
-for f in include/gaussvid/*.h; do
-    [ -n "${owner[gaussvid/$(basename "$f")]}" ] || bad "$f belongs to no module: add it to tests/layers.sh"
+for f in include/gaussvid/*; do
+    if [ -d "$f" ]; then
+        [ -n "${allowed[$(basename "$f")]}" ] || bad "$f/ names no module"
+    else
+        bad "$f is in no module's folder: move it to include/gaussvid/MODULE/"
+    fi
 done
 
 # module_of FILE: the module a source file or an included path belongs to.
 module_of() {
     case $1 in
-    include/gaussvid/*) echo "${owner[gaussvid/${1#include/gaussvid/}]}" ;;
-    gaussvid/*) echo "${owner[$1]}" ;;
+    include/gaussvid/*/*) local p=${1#include/gaussvid/}; echo "${p%%/*}" ;;
+    gaussvid/*/*) local p=${1#gaussvid/}; echo "${p%%/*}" ;;
+    gaussvid/*) ;;
     src/*) local p=${1#src/}; echo "${p%%/*}" ;;
     */*) echo "${1%%/*}" ;;
     esac

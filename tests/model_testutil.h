@@ -4,9 +4,9 @@
 #ifndef GAUSSVID_TESTS_MODEL_TESTUTIL_H
 #define GAUSSVID_TESTS_MODEL_TESTUTIL_H
 
-#include "gaussvid/core.h"
-#include "gaussvid/dit.h"
-#include "gaussvid/plucker.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/dit.h"
+#include "gaussvid/model/plucker.h"
 
 /* The tiny preset with variant overrides (NULL: the preset's), initialised. */
 static inline int mt_model(gv_dit *m, const char *variant, uint64_t seed)

@@ -4,8 +4,8 @@
 #ifndef GAUSSVID_TESTS_NN_TESTUTIL_H
 #define GAUSSVID_TESTS_NN_TESTUTIL_H
 
-#include "gaussvid/core.h"
-#include "gaussvid/nn.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/nn.h"
 
 /* A trainable parameter filled with lo + (hi - lo) * U[0, 1) from stream `seed`. */
 static inline gv_tensor *nt_uniform(gv_params *ps, const char *name, int ndim, const int *shape,

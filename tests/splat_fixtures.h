@@ -7,9 +7,9 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/gaussians.h"
-#include "gaussvid/splat.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/gaussians.h"
+#include "gaussvid/splat/splat.h"
 
 static const double FIX_C0 = 0.28209479177387814;
 

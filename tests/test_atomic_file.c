@@ -13,7 +13,7 @@
 #include <sys/wait.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 static char dir[4096];
 

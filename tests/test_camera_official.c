@@ -10,9 +10,9 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/plucker_official.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/plucker_official.h"
+#include "gaussvid/io/safetensors.h"
 
 /* Frame 0 at (0, 0, 5) looking down +z; frame 1 turned 90 degrees about z and moved to
  * (1, 0, 5); fx = fy = 2, cx = cy = 1. */

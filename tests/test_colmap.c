@@ -5,8 +5,8 @@
 #include <time.h>
 
 #include "check.h"
-#include "gaussvid/colmap.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/colmap.h"
+#include "gaussvid/core/core.h"
 
 static const char *tmp;
 

@@ -9,7 +9,7 @@
 
 #include "check.h"
 #include "test_restore_fixtures.h"
-#include "gaussvid/plucker.h"
+#include "gaussvid/model/plucker.h"
 
 #define W 32
 #define H 32
@@ -66,7 +66,8 @@ static void test_variants(void)
         CHECK_NEAR(rf_max_diff(l.z_corrupt, zi, nz), 0, 1e-4);
         CHECK_NEAR(rf_max_diff(l.vace, za, per), 0, 1e-4);
         CHECK_NEAR(rf_max_diff(l.vace + per, zr, per), 0, 1e-4);
-        /* reference 3.3: for T = 5 the latent mask samples frames 1 and 3, so it is all ones */
+        /* docs/reference/wan-vace-gaussvid.md 3.3: for T = 5 the latent mask samples frames 1 and
+         * 3, so it is all ones */
         double lo = 1, hi = 1;
         for (int64_t i = 2 * per; i < gv_clip_latents_vace_count(&l); i++) {
             if (l.vace[i] < lo) lo = l.vace[i];

@@ -9,7 +9,7 @@
 
 #include "check.h"
 #include "test_restore_fixtures.h"
-#include "gaussvid/coverage.h"
+#include "gaussvid/splat/coverage.h"
 
 #define W 32
 #define H 32
@@ -217,7 +217,8 @@ static void test_vace_context(void)
     CHECK_NEAR(rf_max_diff(on.vace + per, zr, per), 0, 1e-4);
     CHECK(rf_max_diff(on.vace, off.vace, per) > 1e-3); /* the covered halves moved to the inactive part */
     /* the mask channels, exactly: the tiny VAE packs 4 frames (latent frames 0, 1 sample pixel
-     * frames 1 and 3, reference 3.3) and unshuffles 8 x 8 pixels into channel 8 dy + dx */
+     * frames 1 and 3, docs/reference/wan-vace-gaussvid.md 3.3) and unshuffles 8 x 8 pixels into
+     * channel 8 dy + dx */
     const int sf = 8, lh = H / sf, lw = W / sf;
     const float *m = on.vace + 2 * per;
     wrong = 0;

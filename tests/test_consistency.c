@@ -8,9 +8,9 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/consistency.h"
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
+#include "gaussvid/eval/consistency.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
 
 enum { W = 32, H = 32, PIXELS = W * H };
 #define FOCAL 16.0

@@ -2,7 +2,7 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 static void test_philox_known_answers(void)
 {

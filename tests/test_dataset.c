@@ -5,10 +5,10 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/splat_train.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/splat/splat_train.h"
+#include "gaussvid/io/safetensors.h"
 
 /* ---- sampling ----------------------------------------------------------------------- */
 
@@ -80,7 +80,7 @@ static void test_uniform_wide_gap(void)
 static void test_released(void)
 {
     int f[5];
-    /* The authors' released test clips (reference doc section 1.3). */
+    /* The authors' released test clips (docs/reference/wan-vace-gaussvid.md section 1.3). */
     CHECK(gv_clip_frames(200, 10, 1, GV_SAMPLING_RELEASED, 80, NULL, f) == 0);
     CHECK(f[0] == 80 && f[1] == 81 && f[2] == 85 && f[3] == 89 && f[4] == 90);
     CHECK(gv_clip_frames(200, 24, 1, GV_SAMPLING_RELEASED, 96, NULL, f) == 0);

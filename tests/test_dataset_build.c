@@ -8,12 +8,12 @@
 #include <sys/wait.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/splat_train.h"
-#include "gaussvid/image.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/synth.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/splat/splat_train.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/synth/synth.h"
 
 #define FRAMES 20
 #define W 24

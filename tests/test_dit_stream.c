@@ -17,7 +17,7 @@
 
 #include "check.h"
 #include "model_testutil.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/io/safetensors.h"
 
 static void wide_config(gv_model_config *c)
 {

@@ -12,8 +12,8 @@
 #include <unistd.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/scene_adapt.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/scene_adapt.h"
 
 #define FILE_BYTES (384ll << 20) /* larger than the headroom the child gets */
 #define HEADROOM (96ll << 20)    /* address space above what the child already uses */

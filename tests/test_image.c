@@ -7,8 +7,8 @@
 #include <zlib.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
 
 static char tmp[4096];
 

@@ -8,8 +8,8 @@
 #include <jpeglib.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
 
 enum { W = 32, H = 16 };
 enum { RED, GREEN, BLUE, WHITE };

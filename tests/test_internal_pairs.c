@@ -6,13 +6,13 @@
 #include <math.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/image.h"
-#include "gaussvid/internal_pairs.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/data/internal_pairs.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/splat/splat_train.h"
 
 #define FRAMES 20
 #define W 16

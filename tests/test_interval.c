@@ -5,8 +5,8 @@
 #include <string.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/scene.h"
 
 #define MAX 256
 

@@ -12,16 +12,16 @@
 #include <zlib.h>
 
 #include "check.h"
-#include "gaussvid/checkpoint.h"
-#include "gaussvid/colmap.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/image.h"
-#include "gaussvid/model_config.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/train.h"
-#include "gaussvid/transforms.h"
+#include "gaussvid/train/checkpoint.h"
+#include "gaussvid/io/colmap.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/train/train.h"
+#include "gaussvid/io/transforms.h"
 
 /* Under ASan an allocation above 2 GiB returns NULL instead of being tried. */
 const char *__asan_default_options(void);

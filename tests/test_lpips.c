@@ -6,10 +6,10 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/lpips.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/eval/lpips.h"
+#include "gaussvid/io/safetensors.h"
 
 /* torchvision alexnet().features as LPIPS slices it: conv (c_in, c_out, k, stride, pad),
  * with a 3x3 stride-2 max-pool before slices 2 and 3. */

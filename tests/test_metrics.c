@@ -4,8 +4,8 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
 
 /* 2-D window w(i, j) proportional to exp(-((i-5)^2 + (j-5)^2) / (2 * 1.5^2)), sum 1. */
 static double window2d[11][11];

@@ -4,8 +4,8 @@
 #include <cjson/cJSON.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/model_config.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/model_config.h"
 
 static const char *tmp;
 
@@ -47,7 +47,8 @@ static void test_wan_presets(void)
     CHECK(v->temporal_factor == 4 && v->spatial_factor == 8 && v->has_latent_stats);
     CHECK(v->latent_mean[0] == -0.7571 && v->latent_mean[7] == 1.5508 && v->latent_mean[15] == -0.2921);
     CHECK(v->latent_std[0] == 2.8184 && v->latent_std[8] == 3.2687 && v->latent_std[15] == 1.9160);
-    /* The authors' camera encoder sizes (reference 1.4) and LoRA rank 32 (paper 4). */
+    /* The authors' camera encoder sizes (docs/reference/wan-vace-gaussvid.md 1.4) and LoRA rank 32
+     * (paper 4). */
     CHECK(c.camera.channels == 128 && c.camera.gate_hidden == 256 && c.camera.proj_hidden == 5120);
     CHECK(c.camera.gamma_init == 0.1 && c.lora.rank == 32 && c.lora.alpha == 32);
     int k[3];

@@ -5,7 +5,7 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/model/vae.h"
 #include "model_testutil.h"
 
 /* One no-grad forward; returns a malloc'd copy of the output (numel in *n), or NULL. */
@@ -55,8 +55,9 @@ static void test_shapes(void)
     }
 }
 
-/* Unpatchify (reference 2.7): with a zero head weight every token outputs the head bias, and
- * out[c, f, 2h + dy, 2w + dx] = bias[(dy 2 + dx) C + c] (C = 4 channels, patch 1x2x2). */
+/* Unpatchify (docs/reference/wan-vace-gaussvid.md 2.7): with a zero head weight every token outputs
+ * the head bias, and out[c, f, 2h + dy, 2w + dx] = bias[(dy 2 + dx) C + c] (C = 4 channels, patch
+ * 1x2x2). */
 static void test_head_layout(void)
 {
     gv_dit m;
@@ -80,9 +81,10 @@ static void test_head_layout(void)
     gv_dit_free(&m);
 }
 
-/* Paper eq. (3) and reference 3.1: at initialisation the camera encoder's output and the VACE
- * hints are exactly zero, so cameras cannot change the output and zero hints equal no VACE;
- * the camera tokens still take part in attention (docs/ARCHITECTURE.md 6.5): measure that difference. */
+/* Paper eq. (3) and docs/reference/wan-vace-gaussvid.md 3.1: at initialisation the camera encoder's
+ * output and the VACE hints are exactly zero, so cameras cannot change the output and zero hints
+ * equal no VACE; the camera tokens still take part in attention (docs/ARCHITECTURE.md 6.5): measure
+ * that difference. */
 static void test_zero_init(void)
 {
     gv_dit m;
@@ -320,7 +322,8 @@ static void test_rope_positions(void)
     int pos[3 * 12], cam[3 * 12];
     gv_dit_video_positions(2, 2, 3, pos);
     gv_dit_camera_positions(2, 2, 3, cam);
-    for (int n = 0; n < 12; n++) { /* frame-major, then row, then column (reference 2.2) */
+    for (int n = 0; n < 12; n++) { /* frame-major, then row, then column
+                                      (docs/reference/wan-vace-gaussvid.md 2.2) */
         CHECK(pos[3 * n] == n / 6 && pos[3 * n + 1] == (n / 3) % 2 && pos[3 * n + 2] == n % 3);
         CHECK(cam[3 * n] == pos[3 * n] && cam[3 * n + 1] == pos[3 * n + 1] && cam[3 * n + 2] == pos[3 * n + 2]);
     }
@@ -438,7 +441,7 @@ static void test_vace_context(void)
 
 /* The whole context from frames: [E(V (1 - M)) | E(V M) | mask], each part as computed here
  * with the VAE alone; with 5 frames and anchors at both ends the mask channels sample frames
- * 1 and 3 (reference 3.3 step 4), so they are all ones. */
+ * 1 and 3 (docs/reference/wan-vace-gaussvid.md 3.3 step 4), so they are all ones. */
 static void test_vace_context_build(void)
 {
     gv_model_config c;

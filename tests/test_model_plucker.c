@@ -2,8 +2,8 @@
  * invariance of the encoder's input under a global rigid motion and a global scale of all
  * cameras, the temporal packing, and bad cameras. */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/plucker.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/plucker.h"
 
 static gv_camera camera(double fx, double cx, const double R[9], const double t[3])
 {
@@ -124,7 +124,8 @@ static void test_packing(void)
     static float field[6 * 8 * H * W], one[6 * H * W];
     double scale;
     CHECK(gv_plucker_field(cams, T, H, W, 4, field, &scale) == 0);
-    /* packed slots 0..3 hold frame 0 (reference 1.4: frame 0 repeated), slot 4 + f - 1 frame f */
+    /* packed slots 0..3 hold frame 0 (docs/reference/wan-vace-gaussvid.md 1.4: frame 0 repeated),
+     * slot 4 + f - 1 frame f */
     const int source[8] = {0, 0, 0, 0, 1, 2, 3, 4};
     int ok = 1;
     for (int slot = 0; slot < 8; slot++) {

@@ -3,10 +3,10 @@
  * shapes spot-checked against the reference's lists, this project's camera and LoRA tensors,
  * and the check of safetensors files (missing, unexpected, mis-shaped, duplicated). */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/model_config.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/weight_names.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/weight_names.h"
 
 static const char *tmp;
 
@@ -78,7 +78,8 @@ static void test_wan_counts(void)
     gv_weight_list l;
     gv_weight_counts n;
     struct { const char *preset; int64_t D, F, L, V; double ref_main, ref_vace; } cases[] = {
-        {"wan2.1-vace-1.3b", 1536, 8960, 30, 15, 1.42e9, 0.74e9}, /* reference 2.1: main 1.42 B + VACE 0.74 B */
+        /* docs/reference/wan-vace-gaussvid.md 2.1: main 1.42 B + VACE 0.74 B */
+        {"wan2.1-vace-1.3b", 1536, 8960, 30, 15, 1.42e9, 0.74e9},
         {"wan2.1-vace-14b", 5120, 13824, 40, 8, 14.29e9, 3.05e9}, /* main 14.29 B + VACE 3.05 B */
     };
     for (int i = 0; i < 2; i++) {

@@ -3,7 +3,7 @@
 #include <string.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 typedef struct {
     int value;

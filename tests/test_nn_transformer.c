@@ -30,7 +30,8 @@ static gv_tensor *P(model *m, const char *fmt, int block)
     return p ? &p->t : NULL;
 }
 
-/* LN(x) (1 + scale) + shift, the modulation of Wan's blocks (reference section 2.5). */
+/* LN(x) (1 + scale) + shift, the modulation of Wan's blocks (docs/reference/wan-vace-gaussvid.md
+ * section 2.5). */
 static gv_tensor *modulate(gv_graph *g, gv_tensor *x, gv_tensor *mod, int shift_i, int scale_i)
 {
     gv_tensor *shift = gv_slice(g, mod, 1, shift_i * D, D), *scale = gv_slice(g, mod, 1, scale_i * D, D);

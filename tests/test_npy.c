@@ -4,8 +4,8 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/npy.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/npy.h"
 
 static char path_buf[4300];
 

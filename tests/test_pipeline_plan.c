@@ -7,8 +7,8 @@
  * frames' files are named after the photos (a phone's names, a folder, characters a file name
  * should not carry, two photos of one stem), and the path's after the two photos around it. */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
 #include "pipeline/pipeline_internal.h"
 
 static void make_scene(gv_scene *s, int n_frames, gv_camera *cams)

@@ -9,10 +9,10 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/splat/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 enum { W = 48, H = 32 };

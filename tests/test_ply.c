@@ -4,8 +4,8 @@
 #include <math.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
 #include "io/ply_header.h"
 #include "ply_bytes.h"
 

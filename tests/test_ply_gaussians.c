@@ -5,9 +5,9 @@
 #include <math.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/gaussians.h"
-#include "gaussvid/ply.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/gaussians.h"
+#include "gaussvid/io/ply.h"
 #include "ply_bytes.h"
 
 static char dir[4096];

@@ -11,11 +11,11 @@
 #include <zlib.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/weight_files.h"
-#include "io/pickle_internal.h"
-#include "io/zip_internal.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/pth/weight_files.h"
+#include "pth/pickle_internal.h"
+#include "pth/zip_internal.h"
 
 static const char *tmp;
 

@@ -9,10 +9,10 @@
 
 #include "check.h"
 #include "model_testutil.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/vae.h"
-#include "gaussvid/weight_files.h"
-#include "gaussvid/weight_names.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/vae.h"
+#include "gaussvid/pth/weight_files.h"
+#include "gaussvid/model/weight_names.h"
 
 static char fixtures[4096];
 

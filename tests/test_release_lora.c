@@ -14,11 +14,11 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/model_import.h"
-#include "gaussvid/release_lora.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/model_import.h"
+#include "gaussvid/model/release_lora.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/pth/weight_files.h"
 
 enum { RANK = 4 };
 

@@ -10,9 +10,9 @@
 
 #include "check.h"
 #include "model_testutil.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/restore.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/restore/restore.h"
+#include "gaussvid/model/vae.h"
 
 static uint32_t bits(float x)
 {

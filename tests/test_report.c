@@ -8,9 +8,9 @@
 
 #include <cjson/cJSON.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/report.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/report/report.h"
 
 static char dir[4096];
 enum { W = 8, H = 4 };

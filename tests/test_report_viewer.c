@@ -6,10 +6,10 @@
 
 #include <cjson/cJSON.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/report.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/report/report.h"
+#include "gaussvid/scene/scene.h"
 
 static char tmp[4096];
 

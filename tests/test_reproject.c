@@ -6,8 +6,8 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/reproject.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/reproject.h"
 
 enum { W = 40, H = 24 };
 

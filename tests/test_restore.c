@@ -11,9 +11,9 @@
 #include "check.h"
 #include "model_testutil.h"
 #include "test_restore_fixtures.h"
-#include "gaussvid/eval.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/restore.h"
+#include "gaussvid/eval/eval.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/restore/restore.h"
 
 #define W 32
 #define H 32
@@ -67,7 +67,7 @@ static int fake_half_x(void *ctx, const float *x, double sigma, float *v)
 
 static void test_sigmas(void)
 {
-    /* reference 5.4: strength 0.2, shift 5, 10 steps */
+    /* docs/reference/wan-vace-gaussvid.md 5.4: strength 0.2, shift 5, 10 steps */
     const double table[11] = {0.55556, 0.52326, 0.48780, 0.44872, 0.40541, 0.35714,
                               0.30303, 0.24194, 0.17241, 0.09259, 0.0};
     gv_sampler s;

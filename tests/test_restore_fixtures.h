@@ -8,11 +8,11 @@
 #include <math.h>
 #include <stdint.h>
 
-#include "gaussvid/condition.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/dit.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/train/condition.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/model/dit.h"
+#include "gaussvid/model/vae.h"
 
 /* A clip of the scene `scene`, interval n (frames 0, n/4.., n), size w x h, seeded. The
  * anchors' inputs equal their targets; the intermediates' inputs are the targets plus seeded

@@ -8,8 +8,8 @@
 #include <unistd.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
 
 static const char *tmp;
 

@@ -1,10 +1,10 @@
 /* The scene API: the split, the extent, downscaling (intrinsics and images), write/load round
  * trips through both descriptions, and bad folders (the shared scenes: test_shared_scenes.c). */
 #include "check.h"
-#include "gaussvid/colmap.h"
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/io/colmap.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/scene/scene.h"
 
 static const char *tmp;
 

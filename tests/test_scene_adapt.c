@@ -4,7 +4,7 @@
  * with their record; the bare adapter files of the best step. Tiny preset, random weights. */
 #include "check.h"
 #include "model_testutil.h"
-#include "gaussvid/scene_adapt.h"
+#include "gaussvid/train/scene_adapt.h"
 
 /* A latent set of `count` named clips (no arrays: the split only moves entries). */
 static void names_set(gv_latent_set *s, int count)

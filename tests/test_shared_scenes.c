@@ -5,10 +5,10 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/scene/scene.h"
 
 /* courtyard's points3D.ply. */
 static void test_points(const char *scenes)

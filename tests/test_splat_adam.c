@@ -2,8 +2,8 @@
  * computation of PyTorch's formula, the reference learning rates and position schedule,
  * dense vs listed rows, group masks and the active SH coefficients. */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* PyTorch Adam on one value, in double: returns the new parameter. */
 typedef struct { double p, m, v; } ref_state;
@@ -130,7 +130,7 @@ static void test_rows_groups_coefficients(void)
         CHECK(a.v.sh[K * i + 12] == 0);
     }
     /* Dense rows: a row with zero gradient keeps moving by its momentum, m / sqrt(v) of the
-     * decayed moments (reference doc 13.1). */
+     * decayed moments (docs/reference/gaussian-splatting.md 13.1). */
     float m = a.m.means[3], v = a.v.means[3], x = p.means[3];
     memset(g.means, 0, sizeof(float) * 12);
     gv_splat_adam_step(&a, &p, &g, ALL, 4, 1, 4, GV_ADAM_ALL_GROUPS);

@@ -4,9 +4,9 @@
  * rotation by slerp, centre and intrinsics linearly) against hand-derived poses; the
  * pseudo-view term's gradient for both fields against central finite differences of its
  * loss. */
-#include "gaussvid/render.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/splat/render.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/splat/splat_train.h"
 #include "splat_fixtures.h"
 
 static void make_field(gv_gaussians *g, gv_splat_adam *adam, int n, const float (*xyz)[3])

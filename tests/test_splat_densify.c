@@ -1,9 +1,10 @@
 /* Adaptive density control (src/splat/densify.c) on hand-built sets: which Gaussians are
  * cloned, split and pruned, where the children go, their scales, the order of the rows,
- * the Adam moments that follow each row, and the opacity reset (reference doc 14.2-14.3). */
+ * the Adam moments that follow each row, and the opacity reset
+ * (docs/reference/gaussian-splatting.md 14.2-14.3). */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 enum { W = 12 }; /* SH floats per Gaussian at degree 1 */
 

@@ -4,7 +4,7 @@
  * the forward's T_final, thread independence, and empty pixels. */
 #include <omp.h>
 
-#include "gaussvid/render.h"
+#include "gaussvid/splat/render.h"
 #include "splat_fixtures.h"
 
 enum { W = 40, H = 24 };

@@ -12,8 +12,8 @@
  *   reference renderer, and untouched gradient rows of dropped Gaussians. */
 #include <omp.h>
 
-#include "gaussvid/render.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/splat/render.h"
+#include "gaussvid/splat/splat_train.h"
 #include "splat_fixtures.h"
 
 enum { IW = 40, IH = 24, NPIX = IW * IH * 3 };

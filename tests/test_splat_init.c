@@ -2,8 +2,8 @@
  * distances against a brute-force search, and the values create_from_pcd gives (reference
  * doc section 3). */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* Mean of the k smallest squared distances from point i to the others, by sorting them. */
 static double brute_mean_sq(int n, const float *xyz, int k, int i)

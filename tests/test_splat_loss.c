@@ -6,14 +6,14 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/splat/splat_train.h"
 
 enum { MAXW = 40, MAXH = 30 };
 
-/* Mean SSIM of two HWC 3-channel images from the definition (reference doc 19.2): the 2-D
- * window g g^T applied directly with zero padding, population moments, C1 = 1e-4,
+/* Mean SSIM of two HWC 3-channel images from the definition (docs/reference/gaussian-splatting.md
+ * 19.2): the 2-D window g g^T applied directly with zero padding, population moments, C1 = 1e-4,
  * C2 = 9e-4, mean over every value. */
 static double ssim_direct(const double *a, const double *b, int W, int H)
 {

@@ -6,8 +6,8 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 enum { W = 12 }; /* SH floats per Gaussian at degree 1 */
 

@@ -5,7 +5,7 @@
  * independence, reuse of the renderer, and bad calls. */
 #include <omp.h>
 
-#include "gaussvid/render.h"
+#include "gaussvid/splat/render.h"
 #include "splat_fixtures.h"
 
 /* Camera at the origin looking down +z: 40x24, fx = fy = 20, principal point (20, 12). */

@@ -6,9 +6,9 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/splat/splat_train.h"
 
 enum { VIEWS = 6, WIDTH = 48, HEIGHT = 32, TRUE_N = 40 };
 

@@ -10,11 +10,11 @@
 #include <sys/stat.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/synth.h"
-#include "scene/synth_internal.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/synth/synth.h"
+#include "synth/synth_internal.h"
 
 static sy_prim make_prim(sy_shape shape, sy_vec center, sy_vec half, double yaw)
 {

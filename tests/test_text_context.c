@@ -9,13 +9,13 @@
 #include <sys/stat.h>
 
 #include "check.h"
-#include "gaussvid/checkpoint.h"
-#include "gaussvid/core.h"
-#include "gaussvid/model_import.h"
-#include "gaussvid/restore.h"
-#include "gaussvid/train.h"
-#include "gaussvid/umt5.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/train/checkpoint.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/model_import.h"
+#include "gaussvid/restore/restore.h"
+#include "gaussvid/train/train.h"
+#include "gaussvid/model/umt5.h"
+#include "gaussvid/pth/weight_files.h"
 
 static char fixtures[4096], release[4200], out[4200];
 

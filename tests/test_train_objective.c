@@ -6,8 +6,8 @@
  * restoration. */
 #include "check.h"
 #include "model_testutil.h"
-#include "gaussvid/restore.h"
-#include "gaussvid/train.h"
+#include "gaussvid/restore/restore.h"
+#include "gaussvid/train/train.h"
 
 /* A clip's latents for the tiny preset (32 x 32 pixels: latent 4 x 2 x 4 x 4), random values,
  * the Plücker field of a real camera path; batch 3 for the per-frame layout. */

@@ -7,8 +7,8 @@
 #include "check.h"
 #include "model_testutil.h"
 #include "test_restore_fixtures.h"
-#include "gaussvid/checkpoint.h"
-#include "gaussvid/train.h"
+#include "gaussvid/train/checkpoint.h"
+#include "gaussvid/train/train.h"
 #include "train/train_internal.h"
 
 static const char *tmp;

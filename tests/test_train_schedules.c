@@ -1,12 +1,12 @@
-/* Training schedules (include/gaussvid/train.h) on hand-derived values: the flow-matching path
- * and target, the shift, the reference's pretraining grid and weights, the progressive latent
+/* Training schedules (include/gaussvid/train/train.h) on hand-derived values: the flow-matching
+ * path and target, the shift, the reference's pretraining grid and weights, the progressive latent
  * weight, the curriculum's difficulty, threshold, soft weight and batch choice, and the data
  * order's permutations, and a step's draws. */
 #include <string.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/train.h"
 #include "train/train_internal.h"
 
 static void test_flow(void)
@@ -28,14 +28,15 @@ static void test_flow(void)
 
 static void test_shift_and_grid(void)
 {
-    /* reference 5.4: strength 0.2 with shift 5 starts at sigma 0.5556 */
+    /* docs/reference/wan-vace-gaussvid.md 5.4: strength 0.2 with shift 5 starts at sigma 0.5556 */
     CHECK_NEAR(gv_flow_shift(0.2, 5.0), 1.0 / 1.8, 1e-12);
     CHECK_NEAR(gv_flow_shift(0.7, 1.0), 0.7, 1e-15);
     CHECK_NEAR(gv_flow_shift(1.0, 5.0), 1.0, 1e-15);
     gv_pretrain_schedule s;
     gv_pretrain_schedule_init(&s, 5.0);
     CHECK_NEAR(s.sigma[0], 1.0, 1e-15);
-    CHECK_NEAR(s.sigma[999], 0.005 / 1.004, 1e-12);   /* shift(0.001) ~ 0.005 (reference 5.5) */
+    /* shift(0.001) ~ 0.005 (docs/reference/wan-vace-gaussvid.md 5.5) */
+    CHECK_NEAR(s.sigma[999], 0.005 / 1.004, 1e-12);
     CHECK_NEAR(s.sigma[500], 2.5 / 3.0, 1e-12);       /* shift(0.5) = 2.5 / 3 */
     double sum = 0, max = 0;
     int decreasing = 1, k_max = 0;

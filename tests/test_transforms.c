@@ -2,10 +2,10 @@
  * the NeRF-synthetic convention, the writer's round trip, and malformed files, each failing
  * with one line naming the file and the frame or key. */
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/transforms.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/io/transforms.h"
 
 static const char *tmp;
 

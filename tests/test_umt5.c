@@ -1,4 +1,4 @@
-/* The umT5 encoder (include/gaussvid/umt5.h) on the committed tiny encoder
+/* The umT5 encoder (include/gaussvid/model/umt5.h) on the committed tiny encoder
  * (tests/fixtures/release/tiny-vace-bf16/models_t5_umt5-xxl-enc-bf16.pth: Wan's names, BF16
  * storages, 2 layers): relative-position buckets derived by hand for T5's bidirectional
  * scheme; the config read from the file; one layer and then the whole encoder against an
@@ -7,9 +7,9 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/umt5.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/umt5.h"
+#include "gaussvid/pth/weight_files.h"
 
 static char fixtures[4096];
 

@@ -8,9 +8,9 @@
 #include <stdint.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/umt5.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/umt5.h"
+#include "gaussvid/pth/weight_files.h"
 
 static char fixtures[4096];
 

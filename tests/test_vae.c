@@ -1,4 +1,4 @@
-/* The causal 3D VAE (include/gaussvid/vae.h): the Wan presets' tensors match the published
+/* The causal 3D VAE (include/gaussvid/model/vae.h): the Wan presets' tensors match the published
  * list exactly (names, shapes, 126.9 M parameters) without allocating them; temporal packing
  * shapes; causality (a latent frame does not depend on later input frames, exactly); chunked
  * encoding and decoding through the caches equal one-shot; a gradient check of the tiny
@@ -7,10 +7,10 @@
 
 #include "check.h"
 #include "nn_testutil.h"
-#include "gaussvid/core.h"
-#include "gaussvid/nn.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/nn.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/vae.h"
 #include "model/vae_internal.h"
 
 static const char *tmp;
@@ -49,7 +49,8 @@ static double max_abs(const float *a, int64_t n)
 /* ---- layout ---------------------------------------------------------------------------------- */
 static void test_layout(void)
 {
-    /* reference 4.1: encoder 53,596,928 + decoder 73,295,603 (docs/MODEL.md, test_model_weights) */
+    /* docs/reference/wan-vace-gaussvid.md 4.1: encoder 53,596,928 + decoder 73,295,603
+     * (docs/MODEL.md, test_model_weights) */
     const char *presets[] = {"wan2.1-vace-1.3b", "wan2.1-vace-14b", "small", "tiny"};
     for (int p = 0; p < 4; p++) {
         gv_model_config c;

@@ -5,9 +5,9 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/vae.h"
-#include "gaussvid/eval.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/vae.h"
+#include "gaussvid/eval/eval.h"
 
 enum { T = 5, H = 16, W = 16, TL = 2 };
 

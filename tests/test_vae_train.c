@@ -1,4 +1,4 @@
-/* VAE training (include/gaussvid/vae_train.h): a few dozen steps of the tiny VAE on a simple
+/* VAE training (include/gaussvid/train/vae_train.h): a few dozen steps of the tiny VAE on a simple
  * moving image lower the reconstruction loss; a run interrupted and resumed from its
  * checkpoint ends with the same weights bit for bit; a checkpoint of other options is
  * refused; the latent statistics are the moments of the latents; clip extraction;
@@ -6,9 +6,9 @@
 #include <omp.h>
 
 #include "check.h"
-#include "gaussvid/core.h"
-#include "gaussvid/nn.h"
-#include "gaussvid/eval.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/nn.h"
+#include "gaussvid/eval/eval.h"
 #include "train/vae_train_internal.h"
 
 static const char *tmp;

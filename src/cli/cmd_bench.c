@@ -5,7 +5,7 @@
 #include "bench/bench_model.h"
 #include "bench/bench_train.h"
 #include "cli/commands.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 static int cmd_bench_nn(int argc, char **argv)
 {

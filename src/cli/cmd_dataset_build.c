@@ -4,9 +4,9 @@
 #include <stdlib.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/splat/splat_train.h"
 
 static int compare_ints(const void *a, const void *b)
 {

@@ -3,9 +3,9 @@
 #include <stdio.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/metrics.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/io/metrics.h"
 
 /* PSNR of input frame f against its target. */
 static double frame_psnr(const gv_clip *clip, int f)

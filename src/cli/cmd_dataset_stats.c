@@ -6,8 +6,8 @@
 #include <stdlib.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
 
 /* Calls fn on the record of every run of the manifest, in manifest order (scene, n). */
 static int for_each_run(const char *dir, void (*fn)(const gv_run_record *, void *), void *arg)

@@ -6,7 +6,7 @@
 
 #include "cli/cmd_restore.h"
 #include "cli/commands.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 int cmd_eval(int argc, char **argv)
 {

@@ -1,5 +1,5 @@
 /* gaussvid metrics A B [--json] [--lpips WEIGHTS]: PSNR and SSIM of two images as the
- * reference 3DGS evaluation computes them (docs/METRICS.md), and LPIPS when its AlexNet
+ * official 3DGS evaluation computes them (docs/METRICS.md), and LPIPS when its AlexNet
  * weights are given (docs/LPIPS.md). `gaussvid metrics consistency DIR` is
  * cmd_metrics_consistency.c. */
 #include <string.h>
@@ -10,10 +10,10 @@
 #include <cjson/cJSON.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/lpips.h"
-#include "gaussvid/metrics.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/eval/lpips.h"
+#include "gaussvid/io/metrics.h"
 
 /* lpips: NULL when not computed. */
 static int print_json(double psnr, double ssim, const double *lpips, int width, int height)

@@ -5,8 +5,8 @@
 #include <stdlib.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/pipeline.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/pipeline/pipeline.h"
 
 int cmd_metrics_consistency(int argc, char **argv)
 {

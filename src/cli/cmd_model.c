@@ -10,11 +10,11 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "gaussvid/condition.h"
-#include "gaussvid/core.h"
-#include "gaussvid/weight_files.h"
-#include "gaussvid/model_config.h"
-#include "gaussvid/weight_names.h"
+#include "gaussvid/train/condition.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/pth/weight_files.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/model/weight_names.h"
 
 enum { SHOWN_PER_KIND = 10 };
 

@@ -6,10 +6,10 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/model_import.h"
-#include "gaussvid/release_lora.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/model_import.h"
+#include "gaussvid/model/release_lora.h"
+#include "gaussvid/pth/weight_files.h"
 
 static int usage_error(const char *what)
 {

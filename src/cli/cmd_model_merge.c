@@ -5,9 +5,9 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/release_lora.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/release_lora.h"
+#include "gaussvid/pth/weight_files.h"
 
 static int merge(const char *base_path, const char *lora_path, const char *out, const char *vae_path,
                  const char *vae_out, gv_fuse_precision precision, int list_keys)

@@ -8,12 +8,12 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dit.h"
-#include "gaussvid/model_config.h"
-#include "gaussvid/plucker_official.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/dit.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/model/plucker_official.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/vae.h"
 
 enum { MAX_WEIGHTS = 64 };
 

@@ -29,9 +29,10 @@ int cmd_pretrain(int argc, char **argv)
                                    sizeof own / sizeof own[0], flags);
     const gv_command_spec spec = {
         "pretrain", NULL, "pretrain the base first-last-frame video model on clean clips",
-        "Standard flow matching (reference wan-vace-gaussvid.md 5.5): x_t = (1 - t) z0 + t eps on\n"
-        "the clean clip latent z0, target v = eps - z0, t drawn uniformly from the 1000-point\n"
-        "grid shifted by --shift and the loss weighted by the reference's bell around t = 500.\n"
+        "Standard flow matching (docs/reference/wan-vace-gaussvid.md 5.5):\n"
+        "x_t = (1 - t) z0 + t eps on the clean clip latent z0, target v = eps - z0, t drawn\n"
+        "uniformly from the 1000-point grid shifted by --shift and the loss weighted by the\n"
+        "reference's bell around t = 500.\n"
         "The VACE context holds the anchors only (the reactive latents are zeroed): the base\n"
         "generates the intermediate frames from the first and last frame, and from the cameras\n"
         "when the variant has them. With --render-context P a share P of the samples keeps the\n"

@@ -7,10 +7,10 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/pipeline.h"
-#include "gaussvid/report.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/pipeline/pipeline.h"
+#include "gaussvid/report/report.h"
+#include "gaussvid/splat/splat_train.h"
 
 #define DEFAULT_CKPT_NAME "gaussvid-small.safetensors"
 #define DEFAULT_CKPT "models/" DEFAULT_CKPT_NAME

@@ -3,8 +3,8 @@
 #include <stdio.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/report.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/report/report.h"
 
 int cmd_report(int argc, char **argv)
 {

@@ -6,10 +6,10 @@
 
 #include "cli/cmd_restore.h"
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/adapt.h"
-#include "gaussvid/scene_adapt.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/restore/adapt.h"
+#include "gaussvid/train/scene_adapt.h"
 
 void gv_restore_cli_flags(gv_restore_cli *c, gv_flag *f, const char *split_help)
 {

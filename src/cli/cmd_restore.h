@@ -3,9 +3,9 @@
 #ifndef GAUSSVID_CLI_CMD_RESTORE_H
 #define GAUSSVID_CLI_CMD_RESTORE_H
 
-#include "gaussvid/checkpoint.h"
-#include "gaussvid/eval.h"
-#include "gaussvid/restore.h"
+#include "gaussvid/train/checkpoint.h"
+#include "gaussvid/eval/eval.h"
+#include "gaussvid/restore/restore.h"
 
 typedef struct {
     const char *ckpt, *sampler, *compose, *split, *lpips, *scene;

@@ -5,8 +5,8 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/scene_colmap.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/scene_colmap.h"
 
 /* "--downscales 2,4,8" or "none". */
 static int parse_downscales(const gv_flag_list *list, gv_colmap_run_options *o)

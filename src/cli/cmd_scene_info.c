@@ -8,8 +8,8 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/scene.h"
 
 /* What is printed, in either form. */
 typedef struct {

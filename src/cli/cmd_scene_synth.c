@@ -3,8 +3,8 @@
 #include <stdlib.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/synth.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/synth/synth.h"
 
 static int usage(const char *message)
 {

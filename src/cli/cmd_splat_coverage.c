@@ -1,5 +1,5 @@
 /* gaussvid splat coverage --model M.ply --scene DIR --interval n [--json FILE]: where a
- * sparse model's error is and what its anchors can give (include/gaussvid/coverage.h):
+ * sparse model's error is and what its anchors can give (include/gaussvid/splat/coverage.h):
  * per held-out frame, anchor coverage, PSNR of the render and of each warped anchor on the
  * pixels it covers, a per-pixel oracle, and the share of the error no anchor sees. */
 #include <math.h>
@@ -9,10 +9,10 @@
 #include <cjson/cJSON.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/coverage.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/coverage.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/scene/scene.h"
 
 static void add_number(cJSON *o, const char *key, double v)
 {

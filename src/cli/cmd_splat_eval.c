@@ -8,10 +8,10 @@
 #include <cjson/cJSON.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/splat/splat_train.h"
 
 typedef struct { double psnr, ssim; int frames; } split_mean;
 

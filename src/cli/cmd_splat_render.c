@@ -6,11 +6,11 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/npy.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/npy.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* Frames chosen by "held-out", "train", "all" or a list "i,j,k" (in the given order).
  * frames holds scene->n_frames entries at most... for lists, up to `capacity`. */

@@ -4,10 +4,10 @@
 #include <stdlib.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* Pixels of the training views (frames 0, n, 2n, ...); 0 when the split fails (training
  * then reports why). */

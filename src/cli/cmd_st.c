@@ -7,8 +7,8 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
 
 /* Metadata values longer than this are cut in the text listing (--json gives them whole). */
 enum { VALUE_PREVIEW = 160 };

@@ -2,8 +2,8 @@
 #ifndef GAUSSVID_CLI_CMD_TRAIN_H
 #define GAUSSVID_CLI_CMD_TRAIN_H
 
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/train.h"
 
 typedef struct {
     const char *out, *log;

@@ -5,8 +5,8 @@
 
 #include "cli/cmd_vae.h"
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/eval.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/eval/eval.h"
 
 static void print_json_string(const char *s)
 {

@@ -10,9 +10,9 @@
 
 #include "cli/cmd_vae.h"
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/eval.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/eval/eval.h"
 
 enum { MAX_CLIPS = 4096, MAX_INTERVALS = 64 };
 

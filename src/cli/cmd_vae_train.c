@@ -6,7 +6,7 @@
 #include "cli/cmd_train.h"
 #include "cli/cmd_vae.h"
 #include "cli/commands.h"
-#include "gaussvid/eval.h"
+#include "gaussvid/eval/eval.h"
 
 /* "HxW" with both positive. */
 static int parse_size(const char *text, int *h, int *w)

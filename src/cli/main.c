@@ -7,8 +7,8 @@
 #include <unistd.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dist.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/core/dist.h"
 
 #define GAUSSVID_VERSION "0.1.0"
 

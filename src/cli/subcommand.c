@@ -3,7 +3,7 @@
 #include <string.h>
 
 #include "cli/commands.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 int gv_run_subcommand(const char *group, const gv_subcommand *table, int n, int argc, char **argv)
 {

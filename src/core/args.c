@@ -1,7 +1,7 @@
 /* Command-line flags from a declarative table; --help, --quiet and --threads are common to
  * every command. Flags are "--name value" or "--name=value"; booleans take no value; lists
  * take every value up to the next option. */
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <errno.h>
 #include <math.h>

@@ -5,7 +5,7 @@
  * path names: run as root, `--out /dev/null` once turned the system's /dev/null into a
  * regular file. So: a symbolic link is followed to the file it names (that file is replaced,
  * the link stays); a device, FIFO or socket is written into directly; a directory is refused. */
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <dirent.h>
 #include <errno.h>

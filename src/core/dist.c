@@ -1,7 +1,7 @@
 /* Ranks of an MPI job (dist.h; docs/DISTRIBUTED.md). Compiled with MPI when CMake found it
  * (GV_HAVE_MPI); the program joins a job only when mpirun started it, so a plain `gaussvid`
  * run never initialises MPI and behaves exactly as a build without it. */
-#include "gaussvid/dist.h"
+#include "gaussvid/core/dist.h"
 
 #include <signal.h>
 #include <stdio.h>
@@ -10,7 +10,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 void gv_dist_share(long count, long *first, long *end)
 {

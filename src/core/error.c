@@ -1,5 +1,5 @@
 /* Per-thread error message: one line naming the input and what is wrong. */
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <stdarg.h>
 #include <stdio.h>

@@ -1,5 +1,5 @@
 /* Whole-file reads, directories and paths (files written atomically: atomic_file.c). */
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <errno.h>
 #include <stdlib.h>

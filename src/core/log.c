@@ -1,5 +1,5 @@
 /* Log lines on stderr, filtered by one process-wide level (set once from --quiet). */
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <stdarg.h>
 #include <stdio.h>

@@ -6,7 +6,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #ifndef GV_INSTALL_DATADIR
 #define GV_INSTALL_DATADIR "/usr/local/share/gaussvid"

@@ -1,5 +1,5 @@
 /* Progress bar with rate and ETA: redrawn in place on a terminal, plain lines otherwise. */
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <stdarg.h>
 #include <string.h>

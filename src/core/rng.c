@@ -1,6 +1,6 @@
 /* Philox-4x32-10 counter-based generator (Salmon, Moraes, Dror, Shaw: "Parallel random
  * numbers: as easy as 1, 2, 3", SC 2011). Constants are the paper's. */
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 

@@ -2,7 +2,7 @@
  * the run resumes from its last checkpoint, so the rows written after that checkpoint will
  * be written again, and the last row may have been cut mid-line. Rewinding the log to the
  * checkpoint's step before appending keeps every step once (issue 25). */
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <stdlib.h>
 #include <string.h>

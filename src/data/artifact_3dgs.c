@@ -4,10 +4,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/coverage.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/render.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/splat/coverage.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/splat/render.h"
+#include "gaussvid/splat/splat_train.h"
 
 typedef struct {
     gv_gaussians gaussians;

@@ -10,8 +10,8 @@
 #include <unistd.h>
 
 #include "data/build_internal.h"
-#include "gaussvid/dist.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/dist.h"
+#include "gaussvid/splat/splat_train.h"
 
 void gv_dataset_default_params(gv_dataset_params *p)
 {

@@ -2,7 +2,7 @@
 #ifndef GAUSSVID_DATA_BUILD_INTERNAL_H
 #define GAUSSVID_DATA_BUILD_INTERNAL_H
 
-#include "gaussvid/dataset.h"
+#include "gaussvid/data/dataset.h"
 
 /* One (scene, n) run of `dataset build`. */
 typedef struct {

@@ -6,7 +6,7 @@
 #include <string.h>
 
 #include "data/build_internal.h"
-#include "gaussvid/dist.h"
+#include "gaussvid/core/dist.h"
 
 /* A rank's runs as bytes: per run its manifest entry, then its clips' entries (the ranks run
  * the same program on the same kind of machine: the structures travel as they are). */

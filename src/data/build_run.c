@@ -5,7 +5,7 @@
 #include <string.h>
 
 #include "data/build_internal.h"
-#include "gaussvid/metrics.h"
+#include "gaussvid/io/metrics.h"
 
 /* Frames of the scene the clips use: their ground truth and, for held-out ones, the render. */
 typedef struct {

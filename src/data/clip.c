@@ -8,9 +8,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/coverage.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/splat/coverage.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/io/safetensors.h"
 
 #define MAX_SIDE 16384
 

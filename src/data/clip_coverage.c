@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/coverage.h"
-#include "gaussvid/dataset.h"
+#include "gaussvid/splat/coverage.h"
+#include "gaussvid/data/dataset.h"
 
 /* clip->coverage, allocated when missing. */
 static int coverage_alloc(gv_clip *clip)

@@ -2,8 +2,8 @@
  * `reconstruct` for every held-out frame (docs/RECONSTRUCT.md), one layout for both. */
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
 
 int gv_clip_fill(gv_clip *clip, const int frames[GV_CLIP_FRAMES], const gv_image *const inputs[GV_CLIP_FRAMES],
                  const gv_image *const targets[GV_CLIP_FRAMES], const gv_camera *const cameras[GV_CLIP_FRAMES])

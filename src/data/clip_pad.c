@@ -4,9 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/image.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/io/image.h"
 
 /* Frame f of a [frames][height][width][channels] array as an image. */
 static gv_image frame_of(uint8_t *frames, int width, int height, int channels, int f)

@@ -6,10 +6,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/internal_pairs.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/internal_pairs.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/splat/splat_train.h"
 #include "data/build_internal.h"
 
 #define SUBSET_SEED 0x9E3779B97F4A7C15ull /* subset j trains with the run seed ^ (j * this) */

@@ -2,8 +2,8 @@
  * left out of subset (k - 1) mod K and sits in the middle of a clip whose anchors are its two
  * neighbouring training views, with the uniform positions of a 2n clip (the sampling of
  * `dataset build`) around it. */
-#include "gaussvid/core.h"
-#include "gaussvid/internal_pairs.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/internal_pairs.h"
 
 int gv_internal_views(int n_frames, int interval)
 {

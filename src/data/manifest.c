@@ -8,9 +8,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/dataset.h"
-#include "gaussvid/json.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/io/json.h"
+#include "gaussvid/splat/splat_train.h"
 
 #define MANIFEST_NAME "manifest.json"
 #define MAX_SEED 9007199254740992.0 /* 2^53: integers a JSON number (a double) holds exactly */

@@ -6,8 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/dataset.h"
-#include "gaussvid/json.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/io/json.h"
 
 /* PSNR of identical images is infinite, which JSON cannot hold: it is recorded as this. */
 #define PSNR_CAP 100.0

@@ -1,11 +1,11 @@
 /* Which frames make a clip (paper section 3.2, "Anchor-Based Clip Sampling"): two training
  * views as clean anchors and three held-out frames between them; and which clips a
- * (scene, n) run keeps. The rules are in include/gaussvid/dataset.h. */
+ * (scene, n) run keeps. The rules are in include/gaussvid/data/dataset.h. */
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
 
 static const char *sampling_names[] = {"uniform", "random", "released"};
 

@@ -2,7 +2,7 @@
  * produce, so a reader can check a clip at a glance. */
 #include <string.h>
 
-#include "gaussvid/dataset.h"
+#include "gaussvid/data/dataset.h"
 
 #define GAP_GREY 32          /* between frames: dark, so frame edges stay visible */
 #define SEPARATOR_GREY 224   /* between inputs and targets: light, so the rows read apart */

@@ -3,7 +3,7 @@
  * which should fall as n grows (paper section 3.2: larger n, stronger artifacts). */
 #include <string.h>
 
-#include "gaussvid/dataset.h"
+#include "gaussvid/data/dataset.h"
 
 static gv_dataset_stats_row *row_of(gv_dataset_stats *s, int n)
 {

@@ -1,4 +1,4 @@
-/* 3D consistency of a sequence of frames (include/gaussvid/consistency.h): each frame warped
+/* 3D consistency of a sequence of frames (include/gaussvid/eval/consistency.h): each frame warped
  * into its neighbours by the model's depth (gv_reproject_anchor, the warp the anchor coverage
  * uses) and scored against them on the pixels the warp covers. */
 #include <math.h>
@@ -6,9 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/consistency.h"
-#include "gaussvid/core.h"
-#include "gaussvid/reproject.h"
+#include "gaussvid/eval/consistency.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/reproject.h"
 
 static double capped_psnr(double mse)
 {

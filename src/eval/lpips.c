@@ -1,7 +1,7 @@
 /* LPIPS (AlexNet) weights: the layer table, and loading one safetensors file whose names are
  * those of lpips.LPIPS(net='alex').state_dict() (docs/LPIPS.md), checked name by name and
  * shape by shape before anything is allocated. */
-#include "gaussvid/lpips.h"
+#include "gaussvid/eval/lpips.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -10,8 +10,8 @@
 #include <string.h>
 
 #include "eval/lpips_internal.h"
-#include "gaussvid/core.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
 
 /* torchvision alexnet().features: 0 conv 11x11/4 pad 2, 1 ReLU | 2 pool, 3 conv 5x5 pad 2,
  * 4 ReLU | 5 pool, 6 conv 3x3 pad 1, 7 ReLU | 8 conv 3x3 pad 1, 9 ReLU | 10 conv 3x3 pad 1,

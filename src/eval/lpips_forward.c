@@ -9,15 +9,15 @@
  * (dropout in the heads is the identity in eval mode). Convolutions are im2col + gv_gemm over
  * bands of output rows; every buffer belongs to the call, so concurrent calls on one net
  * only share the read-only weights. */
-#include "gaussvid/lpips.h"
+#include "gaussvid/eval/lpips.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "eval/lpips_internal.h"
-#include "gaussvid/core.h"
-#include "gaussvid/ops.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/ops.h"
 
 /* normalize_tensor's eps (lpips/__init__.py). */
 #define NORM_EPS 1e-10

@@ -3,7 +3,7 @@
 #ifndef GAUSSVID_EVAL_LPIPS_INTERNAL_H
 #define GAUSSVID_EVAL_LPIPS_INTERNAL_H
 
-#include "gaussvid/lpips.h"
+#include "gaussvid/eval/lpips.h"
 
 /* One slice of the package's `alexnet` (lpips/pretrained_networks.py): an optional 3x3
  * stride-2 max-pool, a convolution and a ReLU, cut from torchvision's alexnet().features,

@@ -8,9 +8,9 @@
 
 #include <cjson/cJSON.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/eval.h"
-#include "gaussvid/metrics.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/eval/eval.h"
+#include "gaussvid/io/metrics.h"
 
 void gv_eval_init(gv_eval_table *t, const gv_lpips *lpips)
 {

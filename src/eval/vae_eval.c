@@ -4,9 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/eval.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/eval/eval.h"
 
 /* Frame t of a channel-first clip [3, T, h, w] in [-1, 1] as HWC in [0, 1]. */
 static void frame_hwc(const float *clip, int T, int t, int h, int w, float *out)

@@ -4,9 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/eval.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/eval/eval.h"
 
 /* 8-bit [T, H, W, 3] frames, the w x h window at (x0, y0), as [3, T, h, w] in [-1, 1]. */
 static void to_clip(const uint8_t *frames, int T, int H, int W, int x0, int y0, int h, int w, float *out)

@@ -1,13 +1,13 @@
 /* COLMAP models: the camera model table, the pinhole check, quaternions, and the readers and
  * writers of a whole sparse/0 folder. The per-file formats are in colmap_bin.c and
  * colmap_text.c. */
-#include "gaussvid/colmap.h"
+#include "gaussvid/io/colmap.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 /* Reference 18.4: model id, name and parameter count, in id order. */
 static const struct {

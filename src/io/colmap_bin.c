@@ -1,4 +1,4 @@
-/* COLMAP binary model files (little-endian; reference gaussian-splatting.md 18.4):
+/* COLMAP binary model files (little-endian; docs/reference/gaussian-splatting.md 18.4):
  *   cameras.bin   u64 n; n x (i32 id, i32 model, u64 width, u64 height, f64 params[])
  *   images.bin    u64 n; n x (i32 id, f64 qw qx qy qz, f64 tx ty tz, i32 camera_id,
  *                 NUL-terminated name, u64 n2d, n2d x (f64 x, f64 y, i64 point3D_id))
@@ -12,8 +12,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "gaussvid/colmap.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/colmap.h"
+#include "gaussvid/core/core.h"
 
 /* Fixed part of each record, used to bound counts by the file size. */
 enum { CAMERA_MIN_BYTES = 24, IMAGE_MIN_BYTES = 64 + 1 + 8, POINT2D_BYTES = 24,

@@ -1,4 +1,4 @@
-/* COLMAP text model files (reference gaussian-splatting.md 18.4); '#' lines are comments:
+/* COLMAP text model files (docs/reference/gaussian-splatting.md 18.4); '#' lines are comments:
  *   cameras.txt   CAMERA_ID MODEL WIDTH HEIGHT PARAMS...
  *   images.txt    IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME, then one line of
  *                 (X Y POINT3D_ID) triples, which may be empty
@@ -9,8 +9,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/colmap.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/colmap.h"
+#include "gaussvid/core/core.h"
 
 #define MAX_IMAGE_SIDE 1000000
 

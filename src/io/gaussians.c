@@ -1,11 +1,11 @@
 /* Storage of a set of 3D Gaussians (structure of arrays) and a finiteness check. */
-#include "gaussvid/gaussians.h"
+#include "gaussvid/io/gaussians.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 int gv_sh_coefficient_count(int degree)
 {

@@ -1,8 +1,8 @@
 /* 8-bit images in memory: allocation, format dispatch by signature, channel and float
  * conversion, and area-average downscaling. The PNG and JPEG codecs are in image_png.c and
  * image_jpeg.c. */
-#include "gaussvid/image.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/core/core.h"
 
 #include <errno.h>
 #include <limits.h>

@@ -3,8 +3,8 @@
  * of file) as errors too, like TurboJPEG's "stop on warning", so that a damaged file is
  * refused instead of decoded into grey blocks. libjpeg does not apply the EXIF orientation:
  * the APP1 segments are kept and the tag read (image_orient.c). */
-#include "gaussvid/image.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/core/core.h"
 
 #include <errno.h>
 #include <setjmp.h>

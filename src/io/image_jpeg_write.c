@@ -1,8 +1,8 @@
 /* JPEG written through libjpeg(-turbo) (image.h): the scene folders `scene colmap` writes keep
  * photos as JPEG, a fifth to a tenth of their size as PNG. Errors longjmp back as in
  * image_jpeg.c; the file goes to a temporary name renamed on success. */
-#include "gaussvid/image.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/core/core.h"
 
 #include <setjmp.h>
 #include <stdio.h>

@@ -2,8 +2,8 @@
  * turned the way the tag says a viewer shows them. Phones store a portrait photo as the
  * sensor read it (landscape) and set the tag (6: turn 90 degrees clockwise); libjpeg ignores
  * the tag, so gaussvid reads it here. */
-#include "gaussvid/image.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/core/core.h"
 
 #include <string.h>
 

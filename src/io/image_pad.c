@@ -3,8 +3,8 @@
  * size is padded on its right and bottom, restored and cropped (docs/RESTORATION.md, "Any
  * image size"). Right and bottom only, so a pixel keeps its coordinates and the cameras'
  * intrinsics stay as they are. */
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
 
 #include <string.h>
 

@@ -2,8 +2,8 @@
  * libpng reports errors by longjmp to the setjmp in the function that called it; every
  * object that setjmp function changes lives in a context struct owned by its caller, so
  * nothing is indeterminate after the jump (C11 7.13.2.1). */
-#include "gaussvid/image.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/core/core.h"
 
 #include <errno.h>
 #include <png.h>

@@ -1,9 +1,9 @@
 /* Labels drawn into 8-bit RGB images with a 5x7 bitmap font drawn for gaussvid (the video's
- * panel labels, include/gaussvid/image.h): no font file and no ffmpeg filter is needed, and a
+ * panel labels, include/gaussvid/io/image.h): no font file and no ffmpeg filter is needed, and a
  * label is the same pixels on every machine. */
 #include <stdint.h>
 
-#include "gaussvid/image.h"
+#include "gaussvid/io/image.h"
 
 /* Printable ASCII 32..126, one byte per row from the top, bit 4 the leftmost column. */
 static const uint8_t GLYPHS[95][7] = {

@@ -1,5 +1,5 @@
 /* Typed reads of JSON members (json.h). */
-#include "gaussvid/json.h"
+#include "gaussvid/io/json.h"
 
 #include <math.h>
 #include <string.h>

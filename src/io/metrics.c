@@ -1,6 +1,7 @@
-/* PSNR (reference doc 19.1) and the PSNR/SSIM pair of two 8-bit images. SSIM is in ssim.c. */
-#include "gaussvid/metrics.h"
-#include "gaussvid/core.h"
+/* PSNR (docs/reference/gaussian-splatting.md 19.1) and the PSNR/SSIM pair of two 8-bit images. SSIM
+ * is in ssim.c. */
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,14 +1,15 @@
-/* The 3DGS model PLY (reference section 18.1): one vertex per Gaussian with x y z, nx ny nz,
- * f_dc_0..2, f_rest_0..(3(K-1)-1) channel-major, opacity, scale_0..2, rot_0..3. The reader
- * finds properties by name; the writer uses the reference names, order and float32 LE. */
+/* The 3DGS model PLY (docs/reference/gaussian-splatting.md section 18.1): one vertex per Gaussian
+ * with x y z, nx ny nz, f_dc_0..2, f_rest_0..(3(K-1)-1) channel-major, opacity, scale_0..2,
+ * rot_0..3. The reader finds properties by name; the writer uses the reference names, order and
+ * float32 LE. */
 #include <errno.h>
 #include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
 #include "io/ply_header.h"
 
 enum { MAX_REST = 45 };  /* 3 * (16 - 1): degree 3 */

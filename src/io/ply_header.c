@@ -8,7 +8,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 /* A header longer than this is not a header: a binary file without end_header. */
 enum { PLY_HEADER_MAX_BYTES = 1 << 20, PLY_LINE_MAX = 1024, PLY_MAX_TOKENS = 8 };

@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
 #include "io/ply_header.h"
 
 /* A colour value as a byte: uchar as is; float and double in [0, 1], scaled and rounded. */

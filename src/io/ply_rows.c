@@ -8,7 +8,7 @@
 #include <string.h>
 #include <sys/types.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 /* One value of type t stored at p in the file's byte order. */
 static double decode(const unsigned char *p, ply_type t, int big_endian)

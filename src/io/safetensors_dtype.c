@@ -1,6 +1,6 @@
 /* safetensors dtypes: names, sizes, and the half-precision conversions (IEEE binary16 and
  * bfloat16) used to read and write F16/BF16 tensors. */
-#include "gaussvid/safetensors.h"
+#include "gaussvid/io/safetensors.h"
 
 #include <string.h>
 

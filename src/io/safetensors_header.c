@@ -12,7 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 /* A real header nests 3 deep ({ name: { shape: [ ); the bound only keeps the parser's
  * recursion small whatever cJSON was built with. */

@@ -10,8 +10,8 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
 #include "io/safetensors_internal.h"
 
 /* An index lists names and file names only: 14B's is about 100 KB. */

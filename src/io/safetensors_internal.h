@@ -4,7 +4,7 @@
 
 #include <stddef.h>
 
-#include "gaussvid/safetensors.h"
+#include "gaussvid/io/safetensors.h"
 
 /* gv_st_open of a file already open as fd (read-only), which it closes whatever happens:
  * whoever looked at the first bytes (weights_open.c) does not open the file twice. */

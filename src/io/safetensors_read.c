@@ -1,7 +1,7 @@
 /* Reading safetensors files: the file is memory-mapped read-only (a multi-GB checkpoint is
  * never copied whole), its header checked (safetensors_header.c), and tensors looked up by
  * name, checked against the caller's expected dtype and shape, and converted to float32. */
-#include "gaussvid/safetensors.h"
+#include "gaussvid/io/safetensors.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -12,7 +12,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "io/safetensors_internal.h"
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__

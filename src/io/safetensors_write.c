@@ -4,7 +4,7 @@
  * compact JSON that serde_json prints ("__metadata__" first, then the tensors in data order),
  * padded with spaces to a multiple of 8 bytes. With the header a multiple of 8 and the
  * largest elements first, every tensor starts aligned to its element size. */
-#include "gaussvid/safetensors.h"
+#include "gaussvid/io/safetensors.h"
 
 #include <errno.h>
 #include <inttypes.h>
@@ -13,7 +13,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "io/safetensors_internal.h"
 
 /* Elements converted per write when F32 values are stored as BF16 or F16. */

@@ -1,15 +1,16 @@
-/* The antimatter15 .splat format (reference section 18.3): 32 bytes per Gaussian, no header,
- * little-endian, sorted by descending exp(s0 + s1 + s2) * sigmoid(opacity). Only the DC
- * term of the colour survives; higher SH coefficients are dropped. */
+/* The antimatter15 .splat format (docs/reference/gaussian-splatting.md section 18.3): 32 bytes per
+ * Gaussian, no header, little-endian, sorted by descending exp(s0 + s1 + s2) * sigmoid(opacity).
+ * Only the DC term of the colour survives; higher SH coefficients are dropped. */
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
 
-#define SH_C0 0.28209479177387814  /* reference section 8: the degree-0 SH basis constant */
+#define SH_C0 0.28209479177387814  /* docs/reference/gaussian-splatting.md section 8: the degree-0
+                                      SH basis constant */
 
 typedef struct {
     double log_weight;  /* log(volume x opacity), which orders like it without overflow */

@@ -1,5 +1,6 @@
-/* SSIM as the reference 3DGS computes it (reference doc 19.2, utils/loss_utils.py ssim) and
- * its gradient with respect to the first image (reference doc 11.1).
+/* SSIM as the official 3DGS computes it (docs/reference/gaussian-splatting.md 19.2,
+ * utils/loss_utils.py ssim) and its gradient with respect to the first image
+ * (docs/reference/gaussian-splatting.md 11.1).
  *
  * The 11x11 window is the outer product g g^T of a normalised 1-D Gaussian, so the zero-
  * padded "same" 2-D convolution is a horizontal 11-tap pass followed by a vertical one, both
@@ -16,8 +17,8 @@
  *
  * Layout: planes[m][c][y][x] for the filtered maps; rows are processed in parallel over
  * (channel, row) pairs. */
-#include "gaussvid/metrics.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <omp.h>
@@ -102,7 +103,8 @@ static void ssim_horizontal(ssim_work *w, const float *a, const float *b)
 }
 
 /* Vertical pass and the SSIM map; with dmaps, also the per-pixel partial derivatives of
- * S / N with respect to mu_a, m_aa = w*(a^2) and m_ab = w*(ab) (reference doc 11.1). */
+ * S / N with respect to mu_a, m_aa = w*(a^2) and m_ab = w*(ab)
+ * (docs/reference/gaussian-splatting.md 11.1). */
 static void ssim_vertical(ssim_work *w, int with_gradient)
 {
     const int W = w->W, H = w->H, C = w->C;

@@ -1,10 +1,10 @@
-/* scikit-image's SSIM with its defaults (include/gaussvid/metrics.h), on 8-bit images: the
+/* scikit-image's SSIM with its defaults (include/gaussvid/io/metrics.h), on 8-bit images: the
  * window sums of a, b, a^2, b^2 and ab come from summed-area tables in double (exact: the
  * values are integers below 2^53), one channel at a time. Only the windows wholly inside the
  * image are evaluated: skimage's map is cropped by 3 pixels on every side before its mean,
  * so its border handling (reflection) never reaches the result. */
-#include "gaussvid/metrics.h"
-#include "gaussvid/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/core/core.h"
 
 #include <stdlib.h>
 

@@ -1,6 +1,6 @@
 /* transforms.json reader (nerfstudio / instant-ngp / NeRF-synthetic) and writer (nerfstudio);
- * conventions in include/gaussvid/transforms.h and reference gaussian-splatting.md 18.5. */
-#include "gaussvid/transforms.h"
+ * conventions in include/gaussvid/io/transforms.h and docs/reference/gaussian-splatting.md 18.5. */
+#include "gaussvid/io/transforms.h"
 
 #include <cjson/cJSON.h>
 #include <ctype.h>
@@ -9,9 +9,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/json.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/io/json.h"
 
 #define MAX_IMAGE_SIDE 1000000
 
@@ -53,7 +53,7 @@ static int missing_key(reader_ctx *c, const char *key)
 }
 
 /* Width and height of the first frame's image that needs them, read once (NeRF-synthetic
- * files give no size: reference 18.5 takes it from the image). */
+ * files give no size: docs/reference/gaussian-splatting.md 18.5 takes it from the image). */
 static int image_size(reader_ctx *c, const char *name, int *w, int *h)
 {
     if (!c->image_w) {

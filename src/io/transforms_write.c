@@ -6,8 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/transforms.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/transforms.h"
 
 static int same_intrinsics(const gv_camera *a, const gv_camera *b)
 {

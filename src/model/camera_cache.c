@@ -4,7 +4,7 @@
  * cache to each step; the video tokens then attend to the cached keys and values. The values
  * are bit-identical to the ones a forward pass computes itself (tested). */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -1,13 +1,13 @@
 /* The Plücker token encoder (paper 3.3.1, eq. 1-3; docs/ARCHITECTURE.md 6.4; the authors' encoders in
- * reference 1.4). Its Conv3D kernel and stride are VAE factor x DiT patch in every axis, so it
- * gives one token per video token.
+ * docs/reference/wan-vace-gaussvid.md 1.4). Its Conv3D kernel and stride are VAE factor x DiT patch
+ * in every axis, so it gives one token per video token.
  *   decomposed: F_m = Conv3D_m(m), F_d = Conv3D_d(d); F^_m = F_m sigma(g_d->m(F_d)),
  *               F^_d = F_d sigma(g_m->d(F_m)); g = Linear, SiLU, Linear
  *   monolithic / early: F = Conv3D(m, d) (2C channels); F + MLP(F) (Linear, SiLU, Linear)
  * then x_c = gamma LayerNorm(proj.2(SiLU(proj.0(F)))) with proj.2 zero-initialised and gamma
  * learnable from gamma_init, so x_c = 0 exactly at initialisation. */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 /* The authors' nn.LayerNorm(D) keeps PyTorch's default epsilon. */
 #define CAMERA_NORM_EPS 1e-5f

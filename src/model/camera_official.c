@@ -1,16 +1,16 @@
-/* The official GaussVid camera code (include/gaussvid/plucker_official.h): the Plücker map,
+/* The official GaussVid camera code (include/gaussvid/model/plucker_official.h): the Plücker map,
  * its packing and the PluckerTokenEncoder with the release's parameter names, outside any
  * graph (a reference implementation for comparison, not a trainable module). The map is
  * computed in double from the float32 inputs (the official code runs float32), the encoder
  * in float32 with double accumulations in the convolutions and the LayerNorm. */
-#include "gaussvid/plucker_official.h"
+#include "gaussvid/model/plucker_official.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/ops.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/ops.h"
 
 /* The inverse of a rigid or general 4x4 (row-major) by Gauss-Jordan elimination with partial
  * pivoting, as torch.inverse; -1 when singular. */

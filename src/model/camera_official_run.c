@@ -1,14 +1,14 @@
 /* `gaussvid model run --part camera`: the official GaussVid camera code
- * (include/gaussvid/plucker_official.h) on named input tensors, for comparison with the
+ * (include/gaussvid/model/plucker_official.h) on named input tensors, for comparison with the
  * official classes (docs/GAUSSVID_RELEASE.md "The official camera encoder"). */
-#include "gaussvid/plucker_official.h"
+#include "gaussvid/model/plucker_official.h"
 
 #include <limits.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/pth/weight_files.h"
 
 static const char *const known_inputs[] = {"Ks", "c2ws", "size", "packed", NULL};
 

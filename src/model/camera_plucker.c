@@ -1,8 +1,9 @@
-/* Plücker ray fields (paper 3.3.1, docs/ARCHITECTURE.md 6.4; the authors' construction in reference 1.4 and
- * 6.1): unit directions and moments per pixel centre, relative to the first anchor camera,
- * translations divided by a per-clip length, packed in time like the VAE packs frames. */
-#include "gaussvid/plucker.h"
-#include "gaussvid/core.h"
+/* Plücker ray fields (paper 3.3.1, docs/ARCHITECTURE.md 6.4; the authors' construction in
+ * docs/reference/wan-vace-gaussvid.md 1.4 and 6.1): unit directions and moments per pixel centre,
+ * relative to the first anchor camera, translations divided by a per-clip length, packed in time
+ * like the VAE packs frames. */
+#include "gaussvid/model/plucker.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -95,7 +96,8 @@ int gv_plucker_field(const gv_camera *cams, int frames, int height, int width, i
     const int64_t plane = (int64_t)height * width;
     float *rays = malloc((size_t)(6 * plane) * sizeof *rays);
     if (!rays) return gv_fail("plucker: out of memory for %dx%d rays", width, height);
-    int first_copy = packed - frames; /* the first frame fills slots 0..first_copy (reference 1.4) */
+    int first_copy = packed - frames; /* the first frame fills slots 0..first_copy
+                                         (docs/reference/wan-vace-gaussvid.md 1.4) */
     for (int f = 0; f < frames; f++) {
         if (gv_plucker_rays(&cams[f], &cams[0], scale, height, width, rays) != 0) {
             free(rays);

@@ -1,7 +1,7 @@
 /* Model configs: validation, variants, equality and derived sizes. The JSON form is in
  * config_json.c, the built-in presets in config_presets.c, the format in docs/MODEL.md. */
-#include "gaussvid/model_config.h"
-#include "gaussvid/core.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/core/core.h"
 #include "model/config_internal.h"
 
 #include <math.h>
@@ -79,7 +79,7 @@ void gv_model_config_defaults(gv_model_config *c)
     c->dit.cross_attn_norm = 1;
     c->dit.cross_attn = 1;
     c->dit.eps = 1e-6;
-    c->camera.channels = 128;   /* the authors' encoder (reference 1.4) */
+    c->camera.channels = 128;   /* the authors' encoder (docs/reference/wan-vace-gaussvid.md 1.4) */
     c->camera.gate_hidden = 256;
     c->camera.proj_hidden = 0;  /* 0 until set: the DiT width */
     c->camera.gamma_init = 0.1; /* paper eq. (3): gamma starts at 0.1 */
@@ -115,7 +115,8 @@ static int validate_dit(const gv_model_config *c, const char *src)
     if (d->dim % d->num_heads)
         return gv_config_bad(src, "dit.dim", "%d is not divisible by dit.num_heads (%d)", d->dim, d->num_heads);
     int head_dim = d->dim / d->num_heads;
-    if (head_dim % 2 || head_dim < 6) /* reference 2.6: RoPE pairs split over frame, height, width */
+    if (head_dim % 2 || head_dim < 6) /* docs/reference/wan-vace-gaussvid.md 2.6: RoPE pairs split
+                                         over frame, height, width */
         return gv_config_bad(src, "dit.num_heads", "head dimension dim/num_heads = %d must be even and at least 6 (3D RoPE)", head_dim);
     if (d->cross_attn) {
         if (in_range(src, "dit.text_dim", d->text_dim, 1, 65536) || in_range(src, "dit.text_len", d->text_len, 1, 65536)) return -1;
@@ -128,7 +129,8 @@ static int validate_dit(const gv_model_config *c, const char *src)
         int layer = d->vace_layers[j];
         if (layer < 0 || layer >= d->num_layers)
             return gv_config_bad(src, "dit.vace_layers", "layer %d is not a block index in [0, %d)", layer, d->num_layers);
-        if (j == 0 && layer != 0) /* reference 3.1: block 0 must be in the list (before_proj) */
+        if (j == 0 && layer != 0) /* docs/reference/wan-vace-gaussvid.md 3.1: block 0 must be in the
+                                     list (before_proj) */
             return gv_config_bad(src, "dit.vace_layers", "must start with layer 0 (got %d)", layer);
         if (j > 0 && layer <= d->vace_layers[j - 1])
             return gv_config_bad(src, "dit.vace_layers", "must be strictly increasing (%d after %d)", layer, d->vace_layers[j - 1]);
@@ -137,7 +139,8 @@ static int validate_dit(const gv_model_config *c, const char *src)
         return gv_config_bad(src, "dit.in_dim", "%d differs from vae.z_dim (%d), the latent channels", d->in_dim, c->vae.z_dim);
     if (d->out_dim != c->vae.z_dim)
         return gv_config_bad(src, "dit.out_dim", "%d differs from vae.z_dim (%d), the latent channels", d->out_dim, c->vae.z_dim);
-    int want = 2 * c->vae.z_dim + c->vae.spatial_factor * c->vae.spatial_factor; /* reference 3.3 */
+    /* The VACE context's channels (docs/reference/wan-vace-gaussvid.md 3.3). */
+    int want = 2 * c->vae.z_dim + c->vae.spatial_factor * c->vae.spatial_factor;
     if (d->n_vace_layers > 0 && d->vace_in_dim != want)
         return gv_config_bad(src, "dit.vace_in_dim", "%d should be 2 vae.z_dim + vae.spatial_factor^2 = %d (inactive, reactive latents and mask)",
                              d->vace_in_dim, want);
@@ -161,7 +164,8 @@ static int validate_vae(const gv_vae_config *v, const char *src)
         return -1;
     for (int k = 0; k < v->n_levels; k++) {
         if (in_range(src, "vae.dim_mult", v->dim_mult[k], 1, 64)) return -1;
-        /* Decoder3d halves the channels of every stage it upsamples (reference 4.2). */
+        /* Decoder3d halves the channels of every stage it upsamples
+         * (docs/reference/wan-vace-gaussvid.md 4.2). */
         if (k >= 1 && (v->dim * v->dim_mult[k]) % 2)
             return gv_config_bad(src, "vae.dim_mult", "vae.dim x dim_mult[%d] = %d must be even (the decoder's upsampling halves it)",
                                  k, v->dim * v->dim_mult[k]);

@@ -2,7 +2,7 @@
 #ifndef GAUSSVID_MODEL_CONFIG_INTERNAL_H
 #define GAUSSVID_MODEL_CONFIG_INTERNAL_H
 
-#include "gaussvid/model_config.h"
+#include "gaussvid/model/model_config.h"
 
 /* Records "source: key: message" and returns -1. */
 int gv_config_bad(const char *source, const char *key, const char *fmt, ...)

@@ -1,9 +1,9 @@
 /* The JSON form of a model config (docs/MODEL.md): strict parsing, where every unknown key,
  * duplicate key, wrong type or bad value gives one line naming the file and the key, and
  * the canonical writer (every field, fixed order) used for files and checkpoint metadata. */
-#include "gaussvid/model_config.h"
-#include "gaussvid/core.h"
-#include "gaussvid/json.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/json.h"
 #include "model/config_internal.h"
 
 #include <cjson/cJSON.h>
@@ -199,7 +199,8 @@ static int parse_lora(reader *r, const cJSON *o, gv_lora_config *l)
     if (check_keys(r, o, known) || get_int(r, o, "rank", 0, &l->rank) || lookup(r, o, "alpha", 0, &alpha) ||
         lookup(r, o, "targets", 0, &targets) || lookup(r, o, "modules", 0, &modules))
         return -1;
-    l->alpha = l->rank; /* default: alpha = rank, scale 1 as PEFT in GaussVid (reference 1.5) */
+    l->alpha = l->rank; /* default: alpha = rank, scale 1 as PEFT in GaussVid
+                           (docs/reference/wan-vace-gaussvid.md 1.5) */
     if (alpha && get_double(r, o, "alpha", 1, &l->alpha)) return -1;
     if (targets) {
         if (!cJSON_IsArray(targets)) return gv_config_bad(r->src, "lora.targets", "expected an array, got %s", gv_json_type(targets));

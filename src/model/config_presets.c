@@ -1,8 +1,8 @@
 /* The built-in model presets (also shipped as configs/<name>.json; docs/MODEL.md explains
  * the choices). The Wan presets use the published numbers of the reference's sections 2.1,
  * 3.1, 4.1 and 4.5; their camera encoder uses the authors' sizes (section 1.4). */
-#include "gaussvid/model_config.h"
-#include "gaussvid/core.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/core/core.h"
 #include "model/config_internal.h"
 
 #include <stdio.h>
@@ -17,7 +17,8 @@ const char *const *gv_model_preset_names(void)
 }
 
 /* Wan2.1's VAE: dim 96, z 16, [1,2,4,4], 2 res blocks, no stage attention, time down
- * [F,T,T] (reference 4.1) and its per-channel latent statistics (reference 4.5). */
+ * [F,T,T] (docs/reference/wan-vace-gaussvid.md 4.1) and its per-channel latent statistics
+ * (docs/reference/wan-vace-gaussvid.md 4.5). */
 static void wan_vae(gv_vae_config *v)
 {
     static const double mean[16] = {-0.7571, -0.7089, -0.9113, 0.1075, -0.1745, 0.9653, -0.1517, 1.5508,
@@ -40,7 +41,8 @@ static void wan_vae(gv_vae_config *v)
     memcpy(v->latent_std, std, sizeof std);
 }
 
-/* Wan2.1 DiT (reference 2.1): shared numbers of the 1.3B and 14B models. */
+/* Wan2.1 DiT (docs/reference/wan-vace-gaussvid.md 2.1): shared numbers of the 1.3B and 14B
+ * models. */
 static void wan_dit(gv_dit_config *d, int dim, int ffn_dim, int heads, int layers, int vace_step, int n_vace)
 {
     d->dim = dim;

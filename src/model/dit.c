@@ -1,8 +1,8 @@
-/* The DiT forward pass (reference 2.2-2.7, 3.2; paper 3.3; docs/ARCHITECTURE.md 6.3-6.6): patch embedding,
- * time and text embeddings, the camera tokens of the chosen variant, VACE hints, the main
- * blocks, the head and unpatchify. */
+/* The DiT forward pass (docs/reference/wan-vace-gaussvid.md 2.2-2.7, 3.2; paper 3.3;
+ * docs/ARCHITECTURE.md 6.3-6.6): patch embedding, time and text embeddings, the camera tokens of
+ * the chosen variant, VACE hints, the main blocks, the head and unpatchify. */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -132,7 +132,8 @@ static int check_inputs(const gv_dit *m, const gv_dit_inputs *in, int grid[3])
     return 0;
 }
 
-/* y [B, N, P C] in (dt, dy, dx, c) order, c fastest -> [B, C, T, H, W] (reference 2.7). */
+/* y [B, N, P C] in (dt, dy, dx, c) order, c fastest -> [B, C, T, H, W]
+ * (docs/reference/wan-vace-gaussvid.md 2.7). */
 static gv_tensor *unpatchify(gv_graph *g, const gv_dit *m, gv_tensor *y, const int grid[3])
 {
     const int *p = m->cfg.dit.patch_size;
@@ -142,7 +143,8 @@ static gv_tensor *unpatchify(gv_graph *g, const gv_dit *m, gv_tensor *y, const i
     return gv_pixel_shuffle(g, t, p[0], p[1], p[2]);
 }
 
-/* Head (reference 2.7): modulation [1, 2, D] + e (not e0), shift then scale. */
+/* Head (docs/reference/wan-vace-gaussvid.md 2.7): modulation [1, 2, D] + e (not e0), shift then
+ * scale. */
 static gv_tensor *head(gv_graph *g, const gv_dit *m, gv_tensor *x, gv_tensor *e, const int grid[3])
 {
     int B = gv_dim(x, 0), D = m->cfg.dit.dim;
@@ -253,7 +255,8 @@ gv_tensor *gv_dit_forward(gv_dit *m, gv_graph *g, const gv_dit_inputs *in)
         } else {
             x = gv_dit_block_video(g, m, &m->blocks[i], x, e0, rope, ctx, tr->camera_k[i], tr->camera_v[i]);
         }
-        if (in->vace && h < d->n_vace_layers && d->vace_layers[h] == i) { /* reference 3.2 */
+        /* VACE hints join after their block (docs/reference/wan-vace-gaussvid.md 3.2) */
+        if (in->vace && h < d->n_vace_layers && d->vace_layers[h] == i) {
             gv_tensor *hint = tr->hints[h++];
             x = gv_add(g, x, in->context_scale == 1.0f ? hint : gv_scale(g, hint, in->context_scale));
         }

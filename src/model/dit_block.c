@@ -1,7 +1,7 @@
-/* Wan2.1 attention blocks (reference 2.5) and their dual-stream form (paper 3.3.2,
- * docs/ARCHITECTURE.md 6.5): adaptive-LayerNorm modulation, self-attention with RMSNorm on q
- * and k over the full width and 3D RoPE, cross-attention to the text context, GELU(tanh) FFN,
- * gated residuals.
+/* Wan2.1 attention blocks (docs/reference/wan-vace-gaussvid.md 2.5) and their dual-stream form
+ * (paper 3.3.2, docs/ARCHITECTURE.md 6.5): adaptive-LayerNorm modulation, self-attention with
+ * RMSNorm on q and k over the full width and 3D RoPE, cross-attention to the text context,
+ * GELU(tanh) FFN, gated residuals.
  *
  * Camera tokens go through the same block weights (LoRA included) with their own modulation
  * (the block's camera_modulation + e0 of t = 0), attend to camera keys only, and skip
@@ -9,7 +9,7 @@
  * this way is exactly the asymmetric mask of the paper; gv_dit_block_joint computes the masked
  * form literally (the reference the tests compare with). */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 
@@ -39,7 +39,7 @@ static float attn_scale(const gv_dit *m)
 }
 
 /* Self-attention inputs of tokens h: q and k RMSNorm-ed over D (before the head split), then
- * rotated by the RoPE table; v plain (reference 2.5). */
+ * rotated by the RoPE table; v plain (docs/reference/wan-vace-gaussvid.md 2.5). */
 static void self_qkv(gv_graph *g, const gv_dit *m, const gv_dit_block *b, gv_tensor *h, gv_tensor *rope,
                      gv_tensor **q, gv_tensor **k, gv_tensor **v)
 {
@@ -54,7 +54,7 @@ static void self_qkv(gv_graph *g, const gv_dit *m, const gv_dit_block *b, gv_ten
     *q = gv_rope(g, *q, rope, heads);
 }
 
-/* x + CrossAttn(norm3(x), ctx): no gate, no RoPE (reference 2.5). */
+/* x + CrossAttn(norm3(x), ctx): no gate, no RoPE (docs/reference/wan-vace-gaussvid.md 2.5). */
 static gv_tensor *cross_attention(gv_graph *g, const gv_dit *m, const gv_dit_block *b, gv_tensor *x, gv_tensor *ctx)
 {
     gv_tensor *h = b->norm3_w ? gv_layer_norm(g, x, b->norm3_w, b->norm3_b, eps_of(m)) : x;

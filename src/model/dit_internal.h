@@ -3,18 +3,18 @@
 #ifndef GAUSSVID_MODEL_DIT_INTERNAL_H
 #define GAUSSVID_MODEL_DIT_INTERNAL_H
 
-#include "gaussvid/dit.h"
+#include "gaussvid/model/dit.h"
 
 /* y = x W^T + b, plus the LoRA update when the layer has an adapter and it is not merged. */
 gv_tensor *gv_dit_lin(gv_graph *g, const gv_dit *m, const gv_dit_linear *l, gv_tensor *x);
 /* LayerNorm(x) (1 + scale) + shift with shift = mod[:, s], scale = mod[:, s + 1]; mod is
- * [B, k, D], x [B, N, D] (Wan's adaptive LayerNorm, reference 2.5). */
+ * [B, k, D], x [B, N, D] (Wan's adaptive LayerNorm, docs/reference/wan-vace-gaussvid.md 2.5). */
 gv_tensor *gv_dit_modulate(gv_graph *g, gv_tensor *x, gv_tensor *mod, int s, float eps);
 /* mod[:, i] as [B, 1, D]. */
 gv_tensor *gv_dit_mod_row(gv_graph *g, gv_tensor *mod, int i);
 
 /* The per-step conditioning: e = time_embedding(sinusoid(t)) [B, D] and
- * e0 = time_projection(e) as [B, 6, D] (reference 2.3). */
+ * e0 = time_projection(e) as [B, 6, D] (docs/reference/wan-vace-gaussvid.md 2.3). */
 /* The time embedding e and its projection e0 of B timesteps; bf16_time: as the release
  * computes it (gv_dit_inputs.bf16_time). */
 int gv_dit_time(gv_graph *g, const gv_dit *m, const float *t, int batch, int bf16_time, gv_tensor **e, gv_tensor **e0);
@@ -42,7 +42,8 @@ int gv_dit_camera_stream(gv_graph *g, const gv_dit *m, gv_tensor *xc, gv_tensor 
 /* The tokens of a 5-D feature map [B, C, T, H, W] as [B, T H W, C]. */
 gv_tensor *gv_dit_tokens(gv_graph *g, gv_tensor *map);
 
-/* VACE hints (reference 3.2): hints[j] for every VACE block from the context tokens and x0. */
+/* VACE hints (docs/reference/wan-vace-gaussvid.md 3.2): hints[j] for every VACE block from the
+ * context tokens and x0. */
 /* Inference only (no-grad graph): keeps the n tensors (allocated after `mark`) and releases
  * everything else allocated after it, so a forward pass holds one block's activations at a
  * time instead of all of them. With gradients on it does nothing. Returns 0 or -1. */

@@ -2,7 +2,7 @@
  * and VACE blocks (q, k, v, o and the FFN by default), y = x W^T + b + (alpha / r) (x A^T) B^T
  * with B zero-initialised; what is trainable in each mode; merging adapters into the base. */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 gv_tensor *gv_dit_lin(gv_graph *g, const gv_dit *m, const gv_dit_linear *l, gv_tensor *x)
 {

@@ -5,7 +5,7 @@
  * 1.3B and 14B lists, without allocating gigabytes). Then the initial values. */
 #include "model/dit_internal.h"
 #include "model/config_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <stdarg.h>

@@ -2,9 +2,9 @@
  * --part dit`; docs/MODEL.md lists the names and layouts): for debugging and for comparing
  * with other implementations of the same architecture. */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
-#include "gaussvid/plucker.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/plucker.h"
+#include "gaussvid/io/safetensors.h"
 
 #include <limits.h>
 #include <stdlib.h>

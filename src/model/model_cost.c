@@ -1,8 +1,8 @@
 /* The forward FLOP count of the restoration network on one clip, from its config alone: the
  * arithmetic behind the small preset's budget (docs/MODEL.md), and a quick way to size new
  * configs. A multiply-add counts 2 FLOP; norms, softmax and element-wise work are left out. */
-#include "gaussvid/model_config.h"
-#include "gaussvid/core.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/core/core.h"
 #include "model/config_internal.h"
 
 #include <string.h>

@@ -2,9 +2,9 @@
  * this project's names for the camera encoder and LoRA (docs/MODEL.md). A base checkpoint and
  * an adapter file load into one model; adapters save alone. */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/pth/weight_files.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,9 +1,9 @@
 /* Fusing the published GaussVid LoRA into base weights with the release's rounding, and
  * `gaussvid model merge`: a base file and its VAE rewritten tensor by tensor with the pairs
- * fused and the decoder entries replaced (include/gaussvid/release_lora.h). Every output
+ * fused and the decoder entries replaced (include/gaussvid/model/release_lora.h). Every output
  * tensor is made when the writer reaches it (gv_st_add_produced), and the base's mapped pages
  * are dropped once read, so merging the 35 GB 14B base holds about one tensor in memory. */
-#include "gaussvid/release_lora.h"
+#include "gaussvid/model/release_lora.h"
 
 #include <math.h>
 #include <omp.h>
@@ -11,7 +11,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 static float bf16_round(float x)
 {

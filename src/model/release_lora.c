@@ -1,12 +1,12 @@
-/* Routing the keys of the published GaussVid checkpoint (include/gaussvid/release_lora.h,
+/* Routing the keys of the published GaussVid checkpoint (include/gaussvid/model/release_lora.h,
  * docs/GAUSSVID_RELEASE.md): which keys are LoRA pairs of which base tensor, which replace
  * VAE decoder tensors, and which are ignored and why. */
-#include "gaussvid/release_lora.h"
+#include "gaussvid/model/release_lora.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 enum { MAX_PARTS = 64 };
 

@@ -1,4 +1,4 @@
-/* The umT5 encoder (include/gaussvid/umt5.h): Wan2.1's T5Encoder with per-layer relative
+/* The umT5 encoder (include/gaussvid/model/umt5.h): Wan2.1's T5Encoder with per-layer relative
  * position embeddings (shared_pos False, as umt5_xxl builds it). Inference only, so it is
  * written as plain loops over CBLAS products rather than taped ops: nothing here is ever
  * trained, and the per-head relative-position bias has no place in gv_attention's shared
@@ -9,15 +9,15 @@
  *   blocks.i.ffn.gate.0.weight, blocks.i.ffn.fc1.weight [dim_ffn, dim],
  *   blocks.i.ffn.fc2.weight [dim, dim_ffn], blocks.i.pos_embedding.embedding.weight
  *   [num_buckets, num_heads]. No biases anywhere. */
-#include "gaussvid/umt5.h"
+#include "gaussvid/model/umt5.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/ops.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/ops.h"
 
 enum { MAX_TOKENS = 4096, MAX_LAYERS = 256 };
 

@@ -1,11 +1,12 @@
 /* The DiT's text context of a prompt (umt5.h): Wan's T5EncoderModel tokenizes the prompt
  * (padding to text_len, keys of the padding masked), encodes it, and keeps the rows of the
- * real tokens; the DiT then pads them with zero rows to text_len (reference 2.4). */
+ * real tokens; the DiT then pads them with zero rows to text_len
+ * (docs/reference/wan-vace-gaussvid.md 2.4). */
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/umt5.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/umt5.h"
 
 int gv_umt5_text_context(const gv_umt5_config *c, const gv_st_file *f, const gv_tokenizer *t, const char *prompt,
                          int text_len, float *out, int32_t *ids)

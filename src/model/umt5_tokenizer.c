@@ -4,12 +4,12 @@
  * the pieces' ids and </s>. Wan's basic_clean also runs ftfy.fix_text and HTML unescaping,
  * which are not reproduced here (no-ops on plain ASCII prompts such as GaussVid's). Without
  * the library every call fails with one line saying so. */
-#include "gaussvid/umt5.h"
+#include "gaussvid/model/umt5.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #ifdef GV_HAVE_SENTENCEPIECE
 void *gv_spm_open(const char *path, char *error, size_t size);

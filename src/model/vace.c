@@ -1,9 +1,9 @@
-/* VACE (reference 3.1-3.3; docs/ARCHITECTURE.md 6.3): the context branch that turns [inactive latents |
- * reactive latents | mask] into hints for designated main blocks, and the construction of
- * that context. For restoration M = 0 on the anchors and 1 on the frames to restore; the
- * anchors variant (docs/ARCHITECTURE.md 6.6) chooses which end frames are anchors. */
+/* VACE (docs/reference/wan-vace-gaussvid.md 3.1-3.3; docs/ARCHITECTURE.md 6.3): the context branch
+ * that turns [inactive latents | reactive latents | mask] into hints for designated main blocks,
+ * and the construction of that context. For restoration M = 0 on the anchors and 1 on the frames to
+ * restore; the anchors variant (docs/ARCHITECTURE.md 6.6) chooses which end frames are anchors. */
 #include "model/dit_internal.h"
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <string.h>

@@ -1,13 +1,14 @@
-/* The VACE context of a clip from its frames (reference 3.3 steps 2-5; docs/ARCHITECTURE.md 6.3): the
- * inactive part V (1 - M) and the reactive part V M encoded by the VAE, and the mask on the
- * latent grid, concatenated. For restoration M = 0 on the anchors (the anchors variant) and 1
- * on the frames to restore; the coverage variant gives M per pixel (condition.h). */
+/* The VACE context of a clip from its frames (docs/reference/wan-vace-gaussvid.md 3.3 steps 2-5;
+ * docs/ARCHITECTURE.md 6.3): the inactive part V (1 - M) and the reactive part V M encoded by the
+ * VAE, and the mask on the latent grid, concatenated. For restoration M = 0 on the anchors (the
+ * anchors variant) and 1 on the frames to restore; the coverage variant gives M per pixel
+ * (condition.h). */
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/dit.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/dit.h"
+#include "gaussvid/model/vae.h"
 
 int gv_vace_context_build_masked(gv_vae *v, const float *video, int frames, int height, int width,
                                  const float *mask, float *out)

@@ -1,12 +1,12 @@
-/* Encoding and decoding whole clips (reference 4.4, 4.5): temporal packing (the first frame
- * alone, then groups of the temporal factor r), the per-channel latent normalisation, and
- * the chunked mode that streams a clip through the causal caches as Wan does (the first
- * frame, then chunks of r frames to encode; one latent frame at a time to decode). */
+/* Encoding and decoding whole clips (docs/reference/wan-vace-gaussvid.md 4.4, 4.5): temporal
+ * packing (the first frame alone, then groups of the temporal factor r), the per-channel latent
+ * normalisation, and the chunked mode that streams a clip through the causal caches as Wan does
+ * (the first frame, then chunks of r frames to encode; one latent frame at a time to decode). */
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/vae.h"
 #include "model/vae_internal.h"
 
 int gv_vae_latent_frames(const gv_vae_config *c, int frames, int *latent_frames)

@@ -1,4 +1,5 @@
-/* The VAE's building blocks (reference 4.2) and their causal caches (reference 4.4).
+/* The VAE's building blocks (docs/reference/wan-vace-gaussvid.md 4.2) and their causal caches
+ * (docs/reference/wan-vace-gaussvid.md 4.4).
  *
  * Every block works on videos [B, C, T, H, W]. A stream carries, per cache slot, what a block
  * keeps from one chunk for the next: a k_t = 3 convolution its last 2 input frames (zeros
@@ -9,7 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "model/vae_internal.h"
 
 int gv_vae_stream_init(gv_vae_stream *s, int n_slots)

@@ -1,12 +1,12 @@
-/* Decoder3d (reference 4.3): the VAE's conv2 (post-quant) on the latent, then conv1, middle,
- * and per stage num_res_blocks + 1 residual blocks (the first of stages 1.. takes half the
- * width, since the upsample before it halved the channels) with attention where the stage's
- * scale is in attn_scales, an upsample between stages (3D mirroring temperal_downsample:
+/* Decoder3d (docs/reference/wan-vace-gaussvid.md 4.3): the VAE's conv2 (post-quant) on the latent,
+ * then conv1, middle, and per stage num_res_blocks + 1 residual blocks (the first of stages 1..
+ * takes half the width, since the upsample before it halved the channels) with attention where the
+ * stage's scale is in attn_scales, an upsample between stages (3D mirroring temperal_downsample:
  * Wan's temperal_upsample is its reverse), head. */
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "model/vae_internal.h"
 
 static int has_scale(const gv_vae_config *v, double scale)

@@ -1,11 +1,11 @@
-/* Encoder3d (reference 4.3): conv1, then per stage num_res_blocks residual blocks (with an
- * attention block after each when the stage's scale is in attn_scales) and a downsample
- * between stages (3D where temperal_downsample says so), middle, head; then the VAE's conv1
- * (quant) gives the posterior's mean and log-variance. */
+/* Encoder3d (docs/reference/wan-vace-gaussvid.md 4.3): conv1, then per stage num_res_blocks
+ * residual blocks (with an attention block after each when the stage's scale is in attn_scales) and
+ * a downsample between stages (3D where temperal_downsample says so), middle, head; then the VAE's
+ * conv1 (quant) gives the posterior's mean and log-variance. */
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "model/vae_internal.h"
 
 static int has_scale(const gv_vae_config *v, double scale)

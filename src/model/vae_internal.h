@@ -1,14 +1,15 @@
-/* Shared by the VAE's files (model/vae_*.c): the building blocks of reference section 4.2
- * with their causal caches (section 4.4), and the binder that gives each block its tensors
- * from the weight list. */
+/* Shared by the VAE's files (model/vae_*.c): the building blocks of
+ * docs/reference/wan-vace-gaussvid.md section 4.2 with their causal caches (section 4.4), and the
+ * binder that gives each block its tensors from the weight list. */
 #ifndef GAUSSVID_VAE_INTERNAL_H
 #define GAUSSVID_VAE_INTERNAL_H
 
-#include "gaussvid/ops.h"
-#include "gaussvid/vae.h"
-#include "gaussvid/weight_names.h"
+#include "gaussvid/nn/ops.h"
+#include "gaussvid/model/vae.h"
+#include "gaussvid/model/weight_names.h"
 
-/* Wan's RMS_norm clamps the channel norm at 1e-12 (F.normalize), reference 4.2. */
+/* Wan's RMS_norm clamps the channel norm at 1e-12 (F.normalize),
+ * docs/reference/wan-vace-gaussvid.md 4.2. */
 #define GV_VAE_NORM_FLOOR 1e-12f
 /* Frames a k_t = 3 causal convolution keeps between chunks (Wan's CACHE_T). */
 #define GV_VAE_CACHE_T 2

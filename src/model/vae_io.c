@@ -7,11 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/vae.h"
-#include "gaussvid/weight_names.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/vae.h"
+#include "gaussvid/model/weight_names.h"
+#include "gaussvid/pth/weight_files.h"
 
 enum { LISTED = 4 }; /* names shown per kind of problem */
 

@@ -1,14 +1,15 @@
 /* The VAE's tensors: every block asks the binder for its tensors by their checkpoint names
- * (reference 4.3) with the shapes the block computes from its channel counts; the binder
- * looks them up in the config's weight list (weight_names_vae.c), so a name or shape on
- * which the network and the list disagree is an error, and so is a listed tensor the network
- * never uses. A dry run checks the Wan presets (127 M parameters) without allocating them. */
+ * (docs/reference/wan-vace-gaussvid.md 4.3) with the shapes the block computes from its channel
+ * counts; the binder looks them up in the config's weight list (weight_names_vae.c), so a name or
+ * shape on which the network and the list disagree is an error, and so is a listed tensor the
+ * network never uses. A dry run checks the Wan presets (127 M parameters) without allocating
+ * them. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "model/vae_internal.h"
 
 static gv_tensor dry_run_tensor; /* stands for every tensor in a dry run (never read) */
@@ -214,7 +215,8 @@ int gv_vae_set_stats(gv_vae *v, const double *mean, const double *std)
         v->cfg.latent_std[k] = std[k];
         v->mean[k] = (float)mean[k];
         v->std[k] = (float)std[k];
-        v->inv_std[k] = (float)(1.0 / std[k]); /* Wan multiplies by 1 / std (reference 4.5) */
+        v->inv_std[k] = (float)(1.0 / std[k]); /* Wan multiplies by 1 / std
+                                                  (docs/reference/wan-vace-gaussvid.md 4.5) */
     }
     v->cfg.has_latent_stats = v->has_stats = 1;
     return 0;

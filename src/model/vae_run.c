@@ -6,10 +6,10 @@
  * the caller writes them. */
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/vae.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/vae.h"
+#include "gaussvid/pth/weight_files.h"
 
 /* Loads the VAE from the first weight file that holds its tensors (others may hold the DiT). */
 static int load_vae(gv_vae *v, const gv_model_config *c, const char *const *weights, int n_weights)

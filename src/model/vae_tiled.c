@@ -1,11 +1,11 @@
-/* The VAE in tiles as the GaussVid release runs it (include/gaussvid/vae.h, gv_vae_tiling;
+/* The VAE in tiles as the GaussVid release runs it (include/gaussvid/model/vae.h, gv_vae_tiling;
  * docs/GAUSSVID_RELEASE.md): overlapping tiles coded whole, blended with linear ramps. */
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/vae.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/vae.h"
 #include "model/vae_internal.h"
 
 enum { MAX_TILES = 256 };

@@ -6,8 +6,8 @@
  * the least any loadable dtype (F16, BF16) takes. */
 #include <inttypes.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/weight_names.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/weight_names.h"
 
 int gv_weights_fit(const gv_model_config *c, unsigned parts, uint64_t bytes, const char *path)
 {

@@ -1,8 +1,8 @@
 /* Checking safetensors files against the tensors a model config implies: what is missing,
  * unexpected, mis-shaped or duplicated, so that a loader (and `gaussvid model inspect`) can
  * say exactly why a set of files does not load. */
-#include "gaussvid/weight_names.h"
-#include "gaussvid/core.h"
+#include "gaussvid/model/weight_names.h"
+#include "gaussvid/core/core.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -1,8 +1,9 @@
 /* The parameter tensors of a model config: the Wan2.1 DiT and VACE branch by their official
- * checkpoint keys (reference 2.8 and 3.1), this project's camera encoder and LoRA adapters
- * (docs/MODEL.md), and the list's lookup and counting. The VAE is in weight_names_vae.c. */
-#include "gaussvid/weight_names.h"
-#include "gaussvid/core.h"
+ * checkpoint keys (docs/reference/wan-vace-gaussvid.md 2.8 and 3.1), this project's camera encoder
+ * and LoRA adapters (docs/MODEL.md), and the list's lookup and counting. The VAE is in
+ * weight_names_vae.c. */
+#include "gaussvid/model/weight_names.h"
+#include "gaussvid/core/core.h"
 #include "model/config_internal.h"
 #include "model/weight_names_internal.h"
 
@@ -75,8 +76,9 @@ static int linear_at(gv_weight_list *l, gv_module m, const char *block, const ch
     return linear(l, m, prefix, out, in, w);
 }
 
-/* One Wan attention block (reference 2.5 and 2.8); vace_index >= 0 for a VACE block, which
- * adds before_proj (block 0) and after_proj, both zero-initialised (reference 3.1). */
+/* One Wan attention block (docs/reference/wan-vace-gaussvid.md 2.5 and 2.8); vace_index >= 0 for a
+ * VACE block, which adds before_proj (block 0) and after_proj, both zero-initialised
+ * (docs/reference/wan-vace-gaussvid.md 3.1). */
 static int add_block(gv_weight_list *l, const gv_dit_config *d, gv_module m, const char *block, int vace_index)
 {
     int64_t D = d->dim, F = d->ffn_dim;
@@ -194,7 +196,7 @@ static int add_camera(gv_weight_list *l, const gv_model_config *c)
 }
 
 /* lora_A [r, in] (random) and lora_B [out, r] (zero) on every targeted linear of a block;
- * the names DiffSynth uses, so adapters interoperate (reference 1.2). */
+ * the names DiffSynth uses, so adapters interoperate (docs/reference/wan-vace-gaussvid.md 1.2). */
 static int add_lora_block(gv_weight_list *l, const gv_model_config *c, const char *block, int vace_index)
 {
     const gv_dit_config *d = &c->dit;

@@ -1,9 +1,10 @@
-/* The Wan2.1 VAE's tensors with the official state-dict indices (reference 4.2, 4.3), for
- * any config of the family: nn.Sequential indices count every module, parameterless ones
- * (SiLU, dropout, zero padding, upsampling) included, so a residual block's convolutions are
- * residual.2 and residual.6 and a resample's convolution is resample.1. */
-#include "gaussvid/weight_names.h"
-#include "gaussvid/core.h"
+/* The Wan2.1 VAE's tensors with the official state-dict indices
+ * (docs/reference/wan-vace-gaussvid.md 4.2, 4.3), for any config of the family: nn.Sequential
+ * indices count every module, parameterless ones (SiLU, dropout, zero padding, upsampling)
+ * included, so a residual block's convolutions are residual.2 and residual.6 and a resample's
+ * convolution is resample.1. */
+#include "gaussvid/model/weight_names.h"
+#include "gaussvid/core/core.h"
 #include "model/weight_names_internal.h"
 
 #include <stdio.h>

@@ -1,6 +1,6 @@
 /* AdamW (Loshchilov & Hutter, "Decoupled weight decay regularization", ICLR 2019) in
  * PyTorch's formulation: decay first, then the bias-corrected Adam update. */
-#include "gaussvid/optim.h"
+#include "gaussvid/nn/optim.h"
 #include "nn/nn_internal.h"
 
 gv_adamw_config gv_adamw_defaults(void)

@@ -4,8 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/tensor.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/tensor.h"
 
 #define ARENA_ALIGN 64
 

@@ -4,7 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "gaussvid/nn.h"
+#include "gaussvid/nn/nn.h"
 #include "nn/nn_internal.h"
 
 gv_gradcheck_opts gv_gradcheck_defaults(void)

@@ -7,9 +7,9 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/ops.h"
-#include "gaussvid/tensor.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/ops.h"
+#include "gaussvid/nn/tensor.h"
 
 /* Loops over less work than this (elements) run on one thread: below it, starting and
  * joining the OpenMP team costs about as much as the loop, and far more when the cores are

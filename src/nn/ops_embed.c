@@ -1,5 +1,5 @@
 /* Embeddings that are inputs of the network rather than learned: Wan's sinusoidal timestep
- * embedding (reference wan-vace-gaussvid.md section 2.3). */
+ * embedding (docs/reference/wan-vace-gaussvid.md section 2.3). */
 #include "nn/nn_internal.h"
 
 gv_tensor *gv_timestep_embedding(gv_graph *g, const float *t, int n, int dim)

@@ -1,4 +1,4 @@
-/* Rotary position embedding: Wan2.1's 3D table (reference wan-vace-gaussvid.md section 2.6)
+/* Rotary position embedding: Wan2.1's 3D table (docs/reference/wan-vace-gaussvid.md section 2.6)
  * and the rotation of adjacent (real, imag) pairs of every head by it. */
 #include "nn/nn_internal.h"
 

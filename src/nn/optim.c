@@ -2,7 +2,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/optim.h"
+#include "gaussvid/nn/optim.h"
 #include "nn/nn_internal.h"
 
 #define NORM_CHUNK 65536

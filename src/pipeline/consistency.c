@@ -9,10 +9,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/consistency.h"
-#include "gaussvid/core.h"
-#include "gaussvid/json.h"
-#include "gaussvid/ply.h"
+#include "gaussvid/eval/consistency.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/json.h"
+#include "gaussvid/io/ply.h"
 #include "pipeline/pipeline_internal.h"
 
 static const char *const KINDS[3] = {"render", "restored", "refined"};

@@ -7,11 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/lpips.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/eval/lpips.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/splat/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 #define PSNR_CAP 100.0

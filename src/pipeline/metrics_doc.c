@@ -6,11 +6,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/checkpoint.h"
-#include "gaussvid/core.h"
-#include "gaussvid/json.h"
-#include "gaussvid/scene_adapt.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/train/checkpoint.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/json.h"
+#include "gaussvid/train/scene_adapt.h"
+#include "gaussvid/splat/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 static int metrics_path(const gv_reconstruct_options *o, char *out, size_t size)

@@ -6,11 +6,11 @@
 
 #include <cjson/cJSON.h>
 
-#include "gaussvid/dataset.h"
-#include "gaussvid/gaussians.h"
-#include "gaussvid/pipeline.h"
-#include "gaussvid/render.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/io/gaussians.h"
+#include "gaussvid/pipeline/pipeline.h"
+#include "gaussvid/splat/render.h"
+#include "gaussvid/scene/scene.h"
 
 #define PIPELINE_NAME_MAX 160
 

@@ -8,8 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 #define SLOTS GV_INTERVAL_CLIP_HELD_OUT /* restored frames per clip */

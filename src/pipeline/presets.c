@@ -3,9 +3,9 @@
  * defaults and its explicit flags over the preset. */
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/pipeline.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/pipeline/pipeline.h"
+#include "gaussvid/splat/splat_train.h"
 
 static const char *const RESTORE_WITH[] = {"adapted", "checkpoint", "none"};
 

@@ -8,14 +8,14 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/adapt.h"
-#include "gaussvid/core.h"
-#include "gaussvid/coverage.h"
-#include "gaussvid/internal_pairs.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/restore.h"
-#include "gaussvid/scene_adapt.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/restore/adapt.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/coverage.h"
+#include "gaussvid/data/internal_pairs.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/restore/restore.h"
+#include "gaussvid/train/scene_adapt.h"
+#include "gaussvid/splat/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 #define ADAPTED "restorer.safetensors" /* the scene checkpoint of --adapt, in DIR/nN */

@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/splat/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 static const float BLACK[3] = {0, 0, 0}; /* the trainer's background (gv_splat_train_defaults) */

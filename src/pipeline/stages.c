@@ -5,13 +5,13 @@
 #include <string.h>
 #include <time.h>
 
-#include "gaussvid/checkpoint.h"
-#include "gaussvid/condition.h"
-#include "gaussvid/core.h"
-#include "gaussvid/internal_pairs.h"
-#include "gaussvid/model_config.h"
-#include "gaussvid/report.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/train/checkpoint.h"
+#include "gaussvid/train/condition.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/internal_pairs.h"
+#include "gaussvid/model/model_config.h"
+#include "gaussvid/report/report.h"
+#include "gaussvid/splat/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 /* Which stages a run has: adapt where it runs on this interval, restore and refine unless

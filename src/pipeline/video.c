@@ -12,7 +12,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "pipeline/pipeline_internal.h"
 
 int pipeline_find_ffmpeg(const gv_reconstruct_options *o, char *out, size_t size)

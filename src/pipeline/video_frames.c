@@ -12,9 +12,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/splat/splat_train.h"
 #include "pipeline/pipeline_internal.h"
 
 static const uint8_t WHITE[3] = {255, 255, 255}, AMBER[3] = {255, 176, 0};

@@ -1,7 +1,7 @@
 /* Base64 (RFC 4648 section 4, with padding): how images and the model travel inside the
  * report and the viewer as data the page reads without a server. */
-#include "gaussvid/report.h"
-#include "gaussvid/core.h"
+#include "gaussvid/report/report.h"
+#include "gaussvid/core/core.h"
 
 #include <stdlib.h>
 

@@ -1,7 +1,8 @@
 /* The report's error maps: the mean absolute difference over R, G and B, coloured so that
- * small errors stay dark and large ones stand out (include/gaussvid/report.h, docs/REPORT.md). */
-#include "gaussvid/report.h"
-#include "gaussvid/core.h"
+ * small errors stay dark and large ones stand out (include/gaussvid/report/report.h,
+ * docs/REPORT.md). */
+#include "gaussvid/report/report.h"
+#include "gaussvid/core/core.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -9,8 +9,8 @@
  * report shows a dash. Unknown keys are ignored, so a newer writer can add some. */
 #include "report_internal.h"
 
-#include "gaussvid/core.h"
-#include "gaussvid/json.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/json.h"
 
 #include <math.h>
 #include <stdarg.h>

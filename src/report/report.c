@@ -4,8 +4,8 @@
  * that links to them. */
 #include "report_internal.h"
 
-#include "gaussvid/core.h"
-#include "gaussvid/report.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/report/report.h"
 
 #include <stdio.h>
 

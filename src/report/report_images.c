@@ -2,8 +2,8 @@
  * embedded in the page as PNG data URIs, so the page is one file that needs nothing else. */
 #include "report_internal.h"
 
-#include "gaussvid/core.h"
-#include "gaussvid/report.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/report/report.h"
 
 #include <stdlib.h>
 

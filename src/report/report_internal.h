@@ -6,7 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "gaussvid/image.h"
+#include "gaussvid/io/image.h"
 
 /* ---- metrics.json (docs/REPORT.md) ----------------------------------------------------- */
 enum { MODEL_SPARSE, MODEL_RESTORED, MODEL_REFINED, N_MODELS };

@@ -3,8 +3,8 @@
  * network), written atomically from metrics.json and the images it names. */
 #include "report_internal.h"
 
-#include "gaussvid/core.h"
-#include "gaussvid/report.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/report/report.h"
 
 #include <stdio.h>
 #include <string.h>

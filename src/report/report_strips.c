@@ -10,9 +10,9 @@
  * before anything is restored, the first and last frames. */
 #include "report_internal.h"
 
-#include "gaussvid/core.h"
-#include "gaussvid/report.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/report/report.h"
+#include "gaussvid/scene/scene.h"
 
 #include <float.h>
 #include <stdlib.h>

@@ -6,7 +6,7 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #define LISTED 5 /* rows per table */
 

@@ -4,8 +4,8 @@
  * refinement helped, and where the report, the viewers and the videos are. */
 #include "report_internal.h"
 
-#include "gaussvid/core.h"
-#include "gaussvid/report.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/report/report.h"
 
 #include <math.h>
 #include <stdio.h>

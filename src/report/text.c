@@ -3,7 +3,7 @@
  * append. */
 #include "report_internal.h"
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 
 #include <stdarg.h>
 #include <stdio.h>

@@ -4,8 +4,8 @@
  * another; the JavaScript is the bundle built into the program (viewer_bundle.c). */
 #include "viewer_internal.h"
 
-#include "gaussvid/core.h"
-#include "gaussvid/report.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/report/report.h"
 
 #include <stdlib.h>
 #include <string.h>

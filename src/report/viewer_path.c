@@ -5,8 +5,8 @@
  * is 2 atan(h / 2 fy). */
 #include "viewer_internal.h"
 
-#include "gaussvid/core.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/scene.h"
 
 #include <math.h>
 

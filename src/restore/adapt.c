@@ -7,10 +7,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/adapt.h"
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
-#include "gaussvid/dist.h"
+#include "gaussvid/restore/adapt.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
+#include "gaussvid/core/dist.h"
 
 void gv_adapt_defaults(gv_adapt_options *o)
 {

@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/adapt.h"
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
+#include "gaussvid/restore/adapt.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
 
 /* The clip's name as restore_run.c seeds it: its file name without folders and extension. */
 static void clip_stem(const char *path, char *out, size_t size)

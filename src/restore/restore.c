@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/restore.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/restore/restore.h"
+#include "gaussvid/train/train.h"
 
 uint64_t gv_restore_clip_seed(uint64_t seed, const char *clip_name)
 {
@@ -58,7 +58,8 @@ int gv_restore_net_velocity(void *ctx, const float *x, double sigma, float *v)
     int vs[5] = {l->batch, l->vace_dim, l->latent_frames, l->lh, l->lw};
     float timestep[8];
     if (l->batch > 8) return gv_fail("restore: batch %d above 8", l->batch);
-    for (int b = 0; b < l->batch; b++) timestep[b] = 1000.0f * (float)sigma; /* reference 2.3: t = 1000 sigma */
+    /* t = 1000 sigma (docs/reference/wan-vace-gaussvid.md 2.3) */
+    for (int b = 0; b < l->batch; b++) timestep[b] = 1000.0f * (float)sigma;
     gv_dit_inputs in = gv_dit_inputs_default();
     in.latent = gv_tensor_from(g, 5, zs, x);
     in.timestep = timestep;

@@ -6,8 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/restore.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/restore/restore.h"
 
 const char *gv_compose_name(gv_compose c)
 {

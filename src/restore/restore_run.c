@@ -4,9 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
-#include "gaussvid/restore.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/restore/restore.h"
 
 /* The file name of a clip path without folders and ".safetensors". */
 static void clip_stem(const char *path, char *out, size_t size)

@@ -5,10 +5,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/restore.h"
-#include "gaussvid/tensor.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/restore/restore.h"
+#include "gaussvid/nn/tensor.h"
+#include "gaussvid/train/train.h"
 
 gv_sampler gv_sampler_default(void)
 {
@@ -40,7 +40,8 @@ int gv_sampler_from_name(const char *name, gv_sampler *out)
     } else if (!strcmp(name, "euler")) {
         s.kind = GV_SAMPLER_EULER, s.steps = 10;
     } else if (!strcmp(name, "released")) {
-        /* reference 1.2, 5.4: strength 0.2 shifted by 5 gives the first sigma 5/9 */
+        /* docs/reference/wan-vace-gaussvid.md 1.2, 5.4: strength 0.2 shifted by 5 gives the first
+         * sigma 5/9 */
         s.kind = GV_SAMPLER_EULER, s.steps = 10, s.shift = 5.0, s.t0 = gv_flow_shift(0.2, 5.0), s.release = 1;
     } else if (!strcmp(name, "identity")) {
         s.kind = GV_SAMPLER_IDENTITY;

@@ -5,9 +5,9 @@
 #ifndef GAUSSVID_SCENE_COLMAP_INTERNAL_H
 #define GAUSSVID_SCENE_COLMAP_INTERNAL_H
 
-#include "gaussvid/colmap.h"
-#include "gaussvid/core.h"
-#include "gaussvid/scene_colmap.h"
+#include "gaussvid/io/colmap.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/scene_colmap.h"
 
 #define COLMAP_PATH 4400
 

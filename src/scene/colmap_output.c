@@ -13,8 +13,8 @@
 #include <strings.h>
 
 #include "colmap_internal.h"
-#include "gaussvid/image.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/io/image.h"
+#include "gaussvid/scene/scene.h"
 
 #define BATCH 8
 #define JPEG_QUALITY 95

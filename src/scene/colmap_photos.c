@@ -8,7 +8,7 @@
 #include <sys/stat.h>
 
 #include "colmap_internal.h"
-#include "gaussvid/image.h"
+#include "gaussvid/io/image.h"
 
 static int is_photo(const char *name)
 {

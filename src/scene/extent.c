@@ -1,8 +1,8 @@
-/* Camera centres and the 3DGS scene extent (reference gaussian-splatting.md 12.1,
+/* Camera centres and the 3DGS scene extent (docs/reference/gaussian-splatting.md 12.1,
  * getNerfppNorm): radius = 1.1 x the largest distance of a camera centre from their mean. */
 #include <math.h>
 
-#include "gaussvid/scene.h"
+#include "gaussvid/scene/scene.h"
 
 void gv_camera_center(const gv_camera *cam, double center[3])
 {

@@ -4,8 +4,8 @@
  * the hand-derived pixels to rounding. */
 #include <math.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/reproject.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/reproject.h"
 
 int gv_reproject_point(const gv_camera *from, double u, double v, double z, const gv_camera *to,
                        double *u_to, double *v_to, double *z_to)

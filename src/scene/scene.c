@@ -1,16 +1,16 @@
 /* Loading a scene folder (docs/SCENES.md): the description (sparse/0 binary, else text, else
  * transforms.json), the point cloud, the image folder for the requested downscale, and the
  * check that every frame's image exists. */
-#include "gaussvid/scene.h"
+#include "gaussvid/scene/scene.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/colmap.h"
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/transforms.h"
+#include "gaussvid/io/colmap.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/io/transforms.h"
 
 #define MAX_DOWNSCALE 64
 

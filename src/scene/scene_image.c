@@ -2,11 +2,12 @@
  * downscaled in memory when the scene has no images_<k>/ folder, and of the camera's size. */
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/scene.h"
 
 /* RGB from grey+alpha or RGBA: v * a + background * (1 - a), rounded to nearest, as 3DGS
- * composites RGBA images (reference 18.5) on its black or white background. */
+ * composites RGBA images (docs/reference/gaussian-splatting.md 18.5) on its black or white
+ * background. */
 static int composite(const gv_image *in, int background, gv_image *out)
 {
     if (gv_image_alloc(out, in->width, in->height, 3) != 0) return -1;

@@ -4,11 +4,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/colmap.h"
-#include "gaussvid/core.h"
-#include "gaussvid/ply.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/transforms.h"
+#include "gaussvid/io/colmap.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/ply.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/io/transforms.h"
 
 static int same_intrinsics(const gv_camera *a, const gv_colmap_camera *b)
 {

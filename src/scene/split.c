@@ -1,12 +1,12 @@
 /* The sparse-view split and the interval rule (docs/ARCHITECTURE.md section 5;
- * include/gaussvid/scene.h): for an interval n, frames 0, n, 2n, ... (in image-name order) are
- * the training views and every other frame is held out; which n a use accepts, and the one
+ * include/gaussvid/scene/scene.h): for an interval n, frames 0, n, 2n, ... (in image-name order)
+ * are the training views and every other frame is held out; which n a use accepts, and the one
  * parser of interval lists. */
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/scene.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/scene.h"
 
 int gv_scene_is_train(int frame, int interval)
 {

@@ -1,6 +1,6 @@
 /* Tile binning: which 16x16 tiles each visible Gaussian touches, and per-tile lists sorted
- * front to back (reference doc sections 6.2 and 7; [RAST] auxiliary.h getRect,
- * rasterizer_impl.cu duplicateWithKeys / identifyTileRanges).
+ * front to back (docs/reference/gaussian-splatting.md sections 6.2 and 7; [RAST] auxiliary.h
+ * getRect, rasterizer_impl.cu duplicateWithKeys / identifyTileRanges).
  *
  * The reference sorts (tile << 32 | depth bits) keys with a stable radix sort of the
  * Gaussians in index order, so each tile's list is ordered by (depth, index). Here the
@@ -13,8 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat.h"
 
 /* Reference clamp of a float tile coordinate: truncation towards zero, then [0, grid].
  * The float is bounded first so that the conversion is always defined. */

@@ -4,8 +4,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "gaussvid/scene.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* Unit quaternion (w, x, y, z) of a rotation matrix (row-major), Shepperd's method: the
  * largest of the four diagonal combinations is used for the square root. */

@@ -13,8 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* far[i] = 1 when row i of g has no row of other within tau. */
 static int mark_unmatched(const gv_gaussians *g, const gv_gaussians *other, double tau,

@@ -6,10 +6,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/coverage.h"
-#include "gaussvid/reproject.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/coverage.h"
+#include "gaussvid/scene/reproject.h"
+#include "gaussvid/splat/splat_train.h"
 
 void gv_coverage_options_default(gv_coverage_options *o)
 {

@@ -1,13 +1,13 @@
-/* The coverage plane of one view by a clip's two anchors (include/gaussvid/coverage.h): the
+/* The coverage plane of one view by a clip's two anchors (include/gaussvid/splat/coverage.h): the
  * model's depth at each camera and the reprojection with its occlusion test, kept per pixel as
  * two bits instead of being scored. */
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/coverage.h"
-#include "gaussvid/reproject.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/coverage.h"
+#include "gaussvid/scene/reproject.h"
+#include "gaussvid/splat/splat_train.h"
 
 int gv_coverage_depth(gv_splat_renderer *r, const gv_gaussians *g, const gv_camera *cam,
                       const gv_coverage_options *opt, float *depth)

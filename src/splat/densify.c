@@ -1,14 +1,14 @@
-/* Adaptive density control of 3DGS (reference doc sections 14.1-14.3; gaussian_model.py
- * add_densification_stats, densify_and_clone, densify_and_split, densify_and_prune,
- * reset_opacity). The rows of the Adam moments move with the rows of the model: copies and
- * children start with zero moments (cat_tensors_to_optimizer), removed rows take theirs
+/* Adaptive density control of 3DGS (docs/reference/gaussian-splatting.md sections 14.1-14.3;
+ * gaussian_model.py add_densification_stats, densify_and_clone, densify_and_split,
+ * densify_and_prune, reset_opacity). The rows of the Adam moments move with the rows of the model:
+ * copies and children start with zero moments (cat_tensors_to_optimizer), removed rows take theirs
  * away (_prune_optimizer), and the step counts are kept. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 #define SPLIT_CHILDREN 2         /* densify_and_split N = 2 */
 #define SPLIT_SCALE_DIVISOR 1.6  /* scaling / (0.8 * N) */

@@ -8,8 +8,8 @@
  * of the blend has the expectation of the full render's (away from the 0.99 clamp and the
  * 1/255 cut; tests/test_splat_dropgaussian.c checks it). The trainer passes the scales to
  * gv_splat_render_forward_scaled; nothing changes at render or test time. */
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 double gv_splat_drop_rate(int iteration, int iterations)
 {

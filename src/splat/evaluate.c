@@ -1,12 +1,12 @@
 /* Rendering a model from a scene's cameras to 8-bit images, and PSNR / SSIM as the 3DGS
- * evaluation computes them (reference doc section 19.1; metrics.py): the render is clamped
- * and quantised to 8 bits as save_image writes it, then compared with the 8-bit ground
- * truth, both read as v / 255. */
+ * evaluation computes them (docs/reference/gaussian-splatting.md section 19.1; metrics.py): the
+ * render is clamped and quantised to 8 bits as save_image writes it, then compared with the 8-bit
+ * ground truth, both read as v / 255. */
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/splat/splat_train.h"
 
 int gv_splat_render_camera(gv_splat_renderer *r, const gv_gaussians *g, const gv_camera *cam,
                            const float bg[3], gv_image *out)

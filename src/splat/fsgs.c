@@ -15,8 +15,8 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 enum { K = GV_FSGS_NEIGHBORS };
 

@@ -1,11 +1,12 @@
 /* Initial Gaussians from a point cloud, or from random points when a scene has none
- * (reference doc section 3; 3DGS gaussian_model.py create_from_pcd, dataset_readers.py). */
+ * (docs/reference/gaussian-splatting.md section 3; 3DGS gaussian_model.py create_from_pcd,
+ * dataset_readers.py). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 #define SH_C0 0.28209479177387814 /* Y_0^0, sh_utils.py */
 #define INIT_OPACITY 0.1          /* inverse_sigmoid(0.1 * ones) */

@@ -1,4 +1,5 @@
-/* Exact k-nearest-neighbour distances for the initial scales (reference doc section 3.1).
+/* Exact k-nearest-neighbour distances for the initial scales
+ * (docs/reference/gaussian-splatting.md section 3.1).
  *
  * 3DGS uses simple-knn's distCUDA2, an approximate search over Morton-sorted boxes; gsplat
  * uses an exact search. This is exact: an implicit kd-tree over an index array (the median
@@ -8,8 +9,8 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 #define KNN_MAX_K 16
 

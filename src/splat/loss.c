@@ -1,7 +1,7 @@
-/* The 3DGS training loss and its gradient (reference doc sections 11, 11.1 and 19.2; 3DGS
- * train.py, utils/loss_utils.py): L = (1 - lambda) L1 + lambda (1 - SSIM) of a render against
- * its target, in float32 as the reference computes it. SSIM: 11-tap Gaussian window (sigma
- * 1.5) applied separably, zero "same" padding, C1 = 0.01^2, C2 = 0.03^2, mean over every
+/* The 3DGS training loss and its gradient (docs/reference/gaussian-splatting.md sections 11, 11.1
+ * and 19.2; 3DGS train.py, utils/loss_utils.py): L = (1 - lambda) L1 + lambda (1 - SSIM) of a
+ * render against its target, in float32 as the reference computes it. SSIM: 11-tap Gaussian window
+ * (sigma 1.5) applied separably, zero "same" padding, C1 = 0.01^2, C2 = 0.03^2, mean over every
  * value; L1 is the mean absolute difference and its gradient uses sign(0) = 0 (autograd).
  *
  * Images are HWC with 3 channels. A row of an image is a line of 3W floats in which the
@@ -27,9 +27,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/metrics.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/metrics.h"
+#include "gaussvid/splat/splat_train.h"
 #include "splat/clones.h"
 
 #define TAPS GV_SSIM_WINDOW  /* 11 */

@@ -17,8 +17,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 #define MAX_SHARE 51          /* gsplat's n_max: a Gaussian is drawn at most 50 times */
 #define NOISE_SHARPNESS 100.0 /* op_sigmoid k */

@@ -1,5 +1,5 @@
-/* The projection's backward (reference doc sections 10.2-10.4, 10.6, 10.7; [RAST]
- * backward.cu), eight listed Gaussians at a time (projection_lanes.h): the forward's state
+/* The projection's backward (docs/reference/gaussian-splatting.md sections 10.2-10.4, 10.6, 10.7;
+ * [RAST] backward.cu), eight listed Gaussians at a time (projection_lanes.h): the forward's state
  * is recomputed, then the chain rule from the conic and the 2D mean back to the mean, the
  * log-scales and the raw quaternion. */
 #include "splat/projection_lanes.h"

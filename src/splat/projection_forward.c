@@ -1,5 +1,5 @@
-/* The forward projection (reference doc sections 2, 4-6; [RAST] forward.cu preprocessCUDA,
- * computeCov2D, computeCov3D), eight Gaussians at a time (projection_lanes.h).
+/* The forward projection (docs/reference/gaussian-splatting.md sections 2, 4-6; [RAST] forward.cu
+ * preprocessCUDA, computeCov2D, computeCov3D), eight Gaussians at a time (projection_lanes.h).
  *
  * Two passes over each chunk of Gaussians:
  *  1. a cheap bound on the radius settles most of the Gaussians that miss the image:

@@ -10,7 +10,7 @@
 
 #include <math.h>
 
-#include "gaussvid/splat.h"
+#include "gaussvid/splat/splat.h"
 #include "splat/simd8.h"
 
 enum { LANES = 8 };
@@ -90,9 +90,9 @@ typedef struct {
     f8 a, b, c;         /* dilated 2D covariance [[a, b], [b, c]] */
 } lanes_state;
 
-/* The forward up to the 2D covariance (reference doc sections 2 and 5); returns all ones in
- * the lanes in front of the near plane with a finite depth, zeros in the others (whose
- * state is meaningless). */
+/* The forward up to the 2D covariance (docs/reference/gaussian-splatting.md sections 2 and 5);
+ * returns all ones in the lanes in front of the near plane with a finite depth, zeros in the others
+ * (whose state is meaningless). */
 static SIMD8_INLINE i8 project_state8(const gv_splat_view *v, const lanes_in *g, lanes_state *p)
 {
     const float *W = v->R;

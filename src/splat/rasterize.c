@@ -1,5 +1,6 @@
-/* Tile rasteriser: front-to-back alpha blending and its backward (reference doc sections 9
- * and 10.1; [RAST] forward.cu / backward.cu renderCUDA).
+/* Tile rasteriser: front-to-back alpha blending and its backward
+ * (docs/reference/gaussian-splatting.md sections 9 and 10.1; [RAST] forward.cu / backward.cu
+ * renderCUDA).
  *
  * Each tile is rendered by one thread, Gaussian by Gaussian in the tile's depth order, eight
  * pixels of a row at a time (simd8.h); the reference runs one GPU thread per pixel over the
@@ -20,7 +21,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "gaussvid/splat.h"
+#include "gaussvid/splat/splat.h"
 #include "splat/blend8.h"
 #include "splat/simd8.h"
 

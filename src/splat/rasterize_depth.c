@@ -2,8 +2,8 @@
  * last forward, blending the view-space depths of the Gaussians with the forward's weights.
  *
  * With w_i = alpha_i T_i the weight of Gaussian i in a pixel (the colour's weight in
- * section 9 of the reference doc), the depth is sum_i w_i z_i / sum_i w_i (0 where nothing
- * blends) and the opacity is 1 - T_final = sum_i w_i. Every pixel goes through the
+ * docs/reference/gaussian-splatting.md section 9), the depth is sum_i w_i z_i / sum_i w_i (0 where
+ * nothing blends) and the opacity is 1 - T_final = sum_i w_i. Every pixel goes through the
  * forward's tests in the forward's order of operations (rasterize.c: the same power,
  * f8_exp_neg, alpha clamp and threshold, early stop before T (1 - alpha) < 1e-4), so it
  * blends exactly the Gaussians the image blended and its T_final is the forward's, bit for
@@ -13,9 +13,9 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/render.h"
-#include "gaussvid/splat.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/render.h"
+#include "gaussvid/splat/splat.h"
 #include "splat/blend8.h"
 #include "splat/simd8.h"
 

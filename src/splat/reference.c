@@ -1,12 +1,13 @@
-/* A plain double-precision renderer with the reference formulas (reference doc sections
- * 2-9), written without the tiles, the per-Gaussian state or the pixel boxes of the fast
- * kernels. The tests compare the kernels with it and take finite differences of it. */
+/* A plain double-precision renderer with the reference formulas
+ * (docs/reference/gaussian-splatting.md sections 2-9), written without the tiles, the per-Gaussian
+ * state or the pixel boxes of the fast kernels. The tests compare the kernels with it and take
+ * finite differences of it. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat.h"
 
 /* FNV-1a over 64-bit values: the signature of the discrete decisions. */
 static void mix(uint64_t *h, uint64_t v)

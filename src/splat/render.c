@@ -4,8 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/render.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/render.h"
 
 const char *const gv_stage_names[GV_STAGES] = {
     "projection", "binning+sort", "SH", "opacity", "raster fwd", "raster bwd", "grads",

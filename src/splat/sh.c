@@ -1,9 +1,9 @@
 /* View-dependent colour from real spherical harmonics up to degree 3, and its backward
- * (reference doc sections 8 and 10.5; [RAST] computeColorFromSH). */
+ * (docs/reference/gaussian-splatting.md sections 8 and 10.5; [RAST] computeColorFromSH). */
 #include <math.h>
 #include <string.h>
 
-#include "gaussvid/splat.h"
+#include "gaussvid/splat/splat.h"
 
 /* The reference's constants (section 8). */
 static const float SH_C0 = 0.28209479177387814f;

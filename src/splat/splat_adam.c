@@ -1,6 +1,6 @@
 /* Adam for the Gaussians, one parameter group per attribute, with the reference learning
- * rates and the log-linear position schedule (reference doc sections 13.1-13.2; 3DGS
- * gaussian_model.py training_setup, general_utils.py get_expon_lr_func).
+ * rates and the log-linear position schedule (docs/reference/gaussian-splatting.md sections
+ * 13.1-13.2; 3DGS gaussian_model.py training_setup, general_utils.py get_expon_lr_func).
  *
  * The update is PyTorch's (torch.optim.Adam, no weight decay, not amsgrad):
  *   m <- b1 m + (1 - b1) g,  v <- b2 v + (1 - b2) g^2,
@@ -20,8 +20,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 void gv_splat_adam_defaults(gv_splat_adam_config *c)
 {

@@ -1,5 +1,5 @@
-/* The 3DGS training iteration (reference doc section 14.1; 3DGS train.py), in the
- * reference order:
+/* The 3DGS training iteration (docs/reference/gaussian-splatting.md section 14.1; 3DGS train.py),
+ * in the reference order:
  *   1. position learning rate of this iteration;
  *   2. one more SH degree at every multiple of sh_interval;
  *   3. next training view from a shuffled epoch order (train.py pops a random view from a
@@ -21,8 +21,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* gsplat's MCMC preset starts from opacity 0.5: relocation draws by opacity, and 0.1 would
  * leave the first draws to chance. */

@@ -4,8 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat_train.h"
 
 /* CoR-GS's second field trains with the seed plus this (its own view order and splits). */
 #define CORGS_SEED_OFFSET 7919

@@ -3,8 +3,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/splat.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/splat/splat.h"
 
 int gv_splat_view_init(gv_splat_view *v, int width, int height, double fx, double fy,
                        double cx, double cy, const double R[9], const double t[3])

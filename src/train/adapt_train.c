@@ -9,9 +9,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/dist.h"
-#include "gaussvid/scene_adapt.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/core/dist.h"
+#include "gaussvid/train/scene_adapt.h"
 #include "train/train_internal.h"
 
 /* Moves entry i of src into dst's next slot. */

@@ -8,9 +8,9 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "gaussvid/condition.h"
-#include "gaussvid/core.h"
-#include "gaussvid/scene_adapt.h"
+#include "gaussvid/train/condition.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/scene_adapt.h"
 #include "train/train_internal.h"
 
 void gv_checkpoint_vae_checksum(const gv_vae *vae, char *out, size_t size)

@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
+#include "gaussvid/core/core.h"
 #include "train/train_internal.h"
 
 /* The parts the file's tensors cover: every tensor of m, or only those fine-tuning trains. */

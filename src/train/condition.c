@@ -4,10 +4,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/condition.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dit.h"
-#include "gaussvid/plucker.h"
+#include "gaussvid/train/condition.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/dit.h"
+#include "gaussvid/model/plucker.h"
 
 int64_t gv_clip_latents_z_count(const gv_clip_latents *l)
 {
@@ -141,7 +141,8 @@ int gv_condition_vace_mask(const gv_model_config *cfg, const gv_clip *clip, floa
 }
 
 /* The video model: one 5-frame clip, batch 1. The VACE context is built from the input clip
- * after blanking (condition.h) by gv_vace_context_build_masked (reference 3.3 steps 2-5). */
+ * after blanking (condition.h) by gv_vace_context_build_masked (docs/reference/wan-vace-gaussvid.md
+ * 3.3 steps 2-5). */
 static int prepare_clip(gv_vae *vae, const gv_model_config *cfg, const gv_clip *clip, gv_clip_latents *l)
 {
     const gv_clip_info *info = &clip->info;

@@ -6,8 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/condition.h"
-#include "gaussvid/core.h"
+#include "gaussvid/train/condition.h"
+#include "gaussvid/core/core.h"
 
 /* rows [y, y + h) and columns [x, x + w) of each of `planes` planes of rows x cols floats */
 static void copy_window(const float *src, int planes, int rows, int cols, int y, int x, int h, int w, float *dst)

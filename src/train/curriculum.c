@@ -3,8 +3,8 @@
  * threshold delta_max(s), the soft weight w_cur, and the choice of a step's clips). */
 #include <math.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/train.h"
 
 double gv_progressive_weight(long step, long warmup, double t, double tau_p, double lambda)
 {

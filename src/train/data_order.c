@@ -3,8 +3,8 @@
  * the whole state a checkpoint needs to continue with the same clips. */
 #include <stdlib.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/train.h"
 
 int gv_data_order_init(gv_data_order *d, int count, uint64_t seed)
 {

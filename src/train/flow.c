@@ -1,10 +1,11 @@
-/* Flow matching as the reference scheduler defines it (wan-vace-gaussvid.md section 5):
- * x_sigma = (1 - sigma) x0 + sigma eps, velocity target eps - x0, the shift, and the training
- * grid with its timestep weights used for base pretraining. GaussVid fine-tuning starts the
- * path at the corrupted latent instead of x0 (paper eq. 6) with the same target (eq. 7). */
+/* Flow matching as the reference scheduler defines it
+ * (docs/reference/wan-vace-gaussvid.md section 5): x_sigma = (1 - sigma) x0 + sigma eps,
+ * velocity target eps - x0, the shift, and the training grid with its timestep weights used
+ * for base pretraining. GaussVid fine-tuning starts the path at the corrupted latent instead
+ * of x0 (paper eq. 6) with the same target (eq. 7). */
 #include <math.h>
 
-#include "gaussvid/train.h"
+#include "gaussvid/train/train.h"
 
 double gv_flow_shift(double sigma, double shift)
 {

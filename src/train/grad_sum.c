@@ -7,8 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/dist.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/core/dist.h"
 #include "train/train_internal.h"
 
 int gv_grad_sum_init(gv_grad_sum *s, const gv_params *ps)

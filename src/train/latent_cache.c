@@ -8,10 +8,10 @@
 
 #include <cjson/cJSON.h>
 
-#include "gaussvid/condition.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dist.h"
-#include "gaussvid/safetensors.h"
+#include "gaussvid/train/condition.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/core/dist.h"
+#include "gaussvid/io/safetensors.h"
 
 #define CACHE_FORMAT "gaussvid.latents"
 #define CACHE_FORMAT_VERSION "1" /* bump when the conditioning of a clip changes */

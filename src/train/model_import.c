@@ -1,5 +1,5 @@
 /* `gaussvid model import`: a published Wan2.1-VACE release folder becomes a gaussvid base
- * checkpoint and its VAE (include/gaussvid/model_import.h, docs/WAN_WEIGHTS.md). The release
+ * checkpoint and its VAE (include/gaussvid/train/model_import.h, docs/WAN_WEIGHTS.md). The release
  * files are read through gv_weights_open (sharded index, safetensors, PyTorch zip), checked
  * against the config's weight list, and re-packaged: the DiT tensors straight from the
  * mapping in their own dtype (no float32 copy of a 14B model in memory), the VAE through
@@ -13,15 +13,15 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "gaussvid/checkpoint.h"
-#include "gaussvid/condition.h"
-#include "gaussvid/core.h"
-#include "gaussvid/model_import.h"
-#include "gaussvid/release_lora.h"
-#include "gaussvid/umt5.h"
-#include "gaussvid/vae.h"
-#include "gaussvid/weight_files.h"
-#include "gaussvid/weight_names.h"
+#include "gaussvid/train/checkpoint.h"
+#include "gaussvid/train/condition.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/model_import.h"
+#include "gaussvid/model/release_lora.h"
+#include "gaussvid/model/umt5.h"
+#include "gaussvid/model/vae.h"
+#include "gaussvid/pth/weight_files.h"
+#include "gaussvid/model/weight_names.h"
 
 /* Elements converted at a time when checking values. */
 enum { CHECK_CHUNK = 1 << 20 };

@@ -8,9 +8,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/condition.h"
-#include "gaussvid/core.h"
-#include "gaussvid/scene_adapt.h"
+#include "gaussvid/train/condition.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/scene_adapt.h"
 #include "train/train_internal.h"
 
 double gv_scene_gate_change(const gv_scene_adaptation *a) { return a->gate_psnr_restored - a->gate_psnr_base; }

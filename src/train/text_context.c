@@ -7,9 +7,9 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/umt5.h"
-#include "gaussvid/weight_files.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/model/umt5.h"
+#include "gaussvid/pth/weight_files.h"
 #include "train/train_internal.h"
 
 #define CONTEXT_FORMAT "gaussvid-text-context"

@@ -2,9 +2,9 @@
 #ifndef GAUSSVID_TRAIN_INTERNAL_H
 #define GAUSSVID_TRAIN_INTERNAL_H
 
-#include "gaussvid/checkpoint.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/train.h"
+#include "gaussvid/train/checkpoint.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/train/train.h"
 
 /* Opens a checkpoint and checks its "format" metadata; fails naming the file. */
 int gv_ckpt_open(gv_st_file *f, const char *path);

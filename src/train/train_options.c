@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/train.h"
 #include "train/train_internal.h"
 
 /* Step counts: docs/TRAINING.md "Budget" explains them (small preset, 2-core machine). */
@@ -22,9 +22,10 @@ void gv_train_defaults(gv_train_options *o, gv_objective objective)
     o->warmup = pre ? 100 : 0;
     o->lr_schedule = pre ? GV_LR_COSINE : GV_LR_CONSTANT;
     o->weight_decay = 0.01;              /* PyTorch's AdamW default, as DiffSynth trains */
-    o->clip_norm = 1.0;                  /* the authors' DeepSpeed config (reference 1.5) */
+    o->clip_norm = 1.0;                  /* the authors' DeepSpeed config
+                                            (docs/reference/wan-vace-gaussvid.md 1.5) */
     o->checkpoint_every = 250;
-    o->shift = 5.0;                      /* reference 5.5 */
+    o->shift = 5.0;                      /* docs/reference/wan-vace-gaussvid.md 5.5 */
     o->t_max = 0.48;                     /* paper 3.4 */
     o->curriculum = !pre;
     o->n_min = 6, o->n_max = 26;         /* paper 4.1 */

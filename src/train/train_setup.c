@@ -4,8 +4,8 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/train.h"
 #include "train/train_internal.h"
 
 int gv_train_load_vae(const char *path, gv_model_config *cfg, gv_vae *vae)

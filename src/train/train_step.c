@@ -4,8 +4,8 @@
 #include <math.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/train.h"
 
 void gv_objective_inputs(const gv_clip_latents *l, gv_objective obj, float t, const float *eps, float *x_t,
                          float *target)
@@ -102,7 +102,8 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
     float timestep[GV_CLIP_FRAMES];
     if (B < 1 || B > GV_CLIP_FRAMES) return gv_fail("clip n%d: batch %d of latents", l->n, B);
     if (l->z_dim != m->cfg.dit.in_dim) return gv_fail("clip n%d: latents of %d channels, the model takes %d", l->n, l->z_dim, m->cfg.dit.in_dim);
-    for (int b = 0; b < B; b++) timestep[b] = 1000.0f * d->t; /* reference 2.3: t = 1000 sigma */
+    /* t = 1000 sigma (docs/reference/wan-vace-gaussvid.md 2.3) */
+    for (int b = 0; b < B; b++) timestep[b] = 1000.0f * d->t;
     gv_graph_reset(g);
     int was = gv_graph_set_grad(g, backward);
     gv_dit_inputs in = gv_dit_inputs_default();

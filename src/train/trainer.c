@@ -8,9 +8,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/dist.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/core/dist.h"
+#include "gaussvid/train/train.h"
 #include "train/train_internal.h"
 
 /* Restores out + ".ckpt" into m and st after checking it belongs to this run. */

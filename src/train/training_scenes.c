@@ -7,11 +7,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/checkpoint.h"
-#include "gaussvid/core.h"
-#include "gaussvid/dataset.h"
-#include "gaussvid/json.h"
-#include "gaussvid/scene_adapt.h"
+#include "gaussvid/train/checkpoint.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/data/dataset.h"
+#include "gaussvid/io/json.h"
+#include "gaussvid/train/scene_adapt.h"
 #include "train/train_internal.h"
 
 int gv_scene_list_has(const char *list, const char *name)

@@ -7,9 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/safetensors.h"
-#include "gaussvid/weight_names.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/safetensors.h"
+#include "gaussvid/model/weight_names.h"
 #include "train/vae_train_internal.h"
 
 /* The options a resumed run must share with the first (steps may grow). */

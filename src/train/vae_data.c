@@ -4,9 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/scene.h"
-#include "gaussvid/vae_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/scene/scene.h"
+#include "gaussvid/train/vae_train.h"
 
 static int load_scene(gv_vae_scene *s, const char *dir, int downscale)
 {

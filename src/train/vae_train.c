@@ -9,9 +9,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/nn.h"
-#include "gaussvid/vae_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/nn.h"
+#include "gaussvid/train/vae_train.h"
 #include "train/vae_train_internal.h"
 
 void gv_vae_train_defaults(gv_vae_train_options *o)

@@ -3,8 +3,8 @@
 #ifndef GAUSSVID_VAE_TRAIN_INTERNAL_H
 #define GAUSSVID_VAE_TRAIN_INTERNAL_H
 
-#include "gaussvid/core.h"
-#include "gaussvid/vae_train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/train/vae_train.h"
 
 /* A random clip of T frames (spacing 1..max_stride, mirrored and reversed at random), an
  * h x w crop of a scene drawn in proportion to its frames, into out [3, T, h, w]. */

@@ -17,9 +17,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gaussvid/core.h"
-#include "gaussvid/tensor.h"
-#include "gaussvid/train.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/nn/tensor.h"
+#include "gaussvid/train/train.h"
 
 #define GV_VAL_SEED 0x76616c6964617465ULL /* "validate": independent of the run's seed */
 

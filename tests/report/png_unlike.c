@@ -7,8 +7,8 @@
  * difference from RRGGBB exceeds TOLERANCE (0..255). Grey images are compared by their one
  * channel against each of R, G and B; alpha is ignored. One line naming the problem and exit
  * status 2 on bad arguments, 1 on an unreadable file or a rectangle outside the image. */
-#include "gaussvid/core.h"
-#include "gaussvid/image.h"
+#include "gaussvid/core/core.h"
+#include "gaussvid/io/image.h"
 
 #include <errno.h>
 #include <stdio.h>
