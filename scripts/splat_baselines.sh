@@ -9,7 +9,8 @@
 # Without flags the cells train at `splat train`'s defaults (--densify lean since issue 38;
 # the earlier tables were the reference's: pass --densify reference to repeat them).
 #
-# Needs build/gaussvid (or $GV); the rooms are made in $SCENES (default /work/scenes) if missing.
+# Needs build/gaussvid (or $GV); the rooms are made in $SCENES (default data/synth, ignored by
+# git) if missing.
 # CELLS="courtyard:6 synth-2:26" runs only those cells; SEED sets every run's seed (default 0).
 # Prints one Markdown row per cell to OUT/table.md; CPU seconds (user + system) are the time to
 # compare when the machine is shared, wall seconds only on an idle one.
@@ -19,7 +20,7 @@ shift
 root=$(cd "$(dirname "$0")/.." && pwd)
 gv=${GV:-$root/build/gaussvid}
 shared_scenes=${GV_SHARED_DATA:-$root/data}/scenes
-scenes_dir=${SCENES:-/work/scenes}
+scenes_dir=${SCENES:-$root/data/synth}
 mkdir -p "$out" "$scenes_dir"
 for k in 1 2 3; do
   [ -d "$scenes_dir/synth-$k" ] || "$gv" scene synth --seed "$k" --out "$scenes_dir/synth-$k" --quiet

@@ -42,19 +42,23 @@ static void draw(gv_progress *p, const char *extra, int final)
     format_duration(elapsed_text, sizeof elapsed_text, elapsed);
     double fraction = p->total > 0 ? (double)p->done / (double)p->total : 0;
     if (fraction > 1) fraction = 1;
+    /* slow items (a restored clip takes seconds): seconds each, not "0.0/s" */
+    char rate_text[32];
+    if (rate > 0 && rate < 1) snprintf(rate_text, sizeof rate_text, "%.1f s each", 1 / rate);
+    else snprintf(rate_text, sizeof rate_text, "%.1f/s", rate);
 
     if (p->on_terminal) {
         char bar[BAR_WIDTH + 1];
         int filled = (int)(fraction * BAR_WIDTH + 0.5);
         for (int i = 0; i < BAR_WIDTH; i++) bar[i] = i < filled ? '#' : '.';
         bar[BAR_WIDTH] = '\0';
-        fprintf(stderr, "\r\033[K%s [%s] %ld/%ld %.1f/s %s %s%s%s", p->label, bar, p->done,
-                p->total, rate, final ? elapsed_text : eta_text, final ? "" : "left",
+        fprintf(stderr, "\r\033[K%s [%s] %ld/%ld %s %s %s%s%s", p->label, bar, p->done,
+                p->total, rate_text, final ? elapsed_text : eta_text, final ? "" : "left",
                 extra && extra[0] ? "  " : "", extra ? extra : "");
         if (final) fputc('\n', stderr);
     } else {
-        fprintf(stderr, "%s %ld/%ld (%3.0f%%) %.1f/s elapsed %s eta %s%s%s\n", p->label, p->done,
-                p->total, 100 * fraction, rate, elapsed_text, final ? "00:00" : eta_text,
+        fprintf(stderr, "%s %ld/%ld (%3.0f%%) %s elapsed %s eta %s%s%s\n", p->label, p->done,
+                p->total, 100 * fraction, rate_text, elapsed_text, final ? "00:00" : eta_text,
                 extra && extra[0] ? "  " : "", extra ? extra : "");
     }
     fflush(stderr);

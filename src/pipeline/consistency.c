@@ -63,13 +63,22 @@ static int measure_set(const pipeline_run *r, const gv_gaussians *g, int k, gv_c
     return rc;
 }
 
+int pipeline_consistency_sets(const pipeline_run *r)
+{
+    return r->opt->restore_with == GV_RESTORE_NONE ? 1 : 3; /* --no-restore: the renders alone */
+}
+
 int pipeline_consistency(const pipeline_run *r, int with_pairs, cJSON **out, double psnr[3])
 {
     *out = NULL;
     gv_gaussians g = {0};
     cJSON *j = cJSON_CreateObject();
-    int rc = 0;
-    for (int k = 0; k < 3 && rc == 0; k++) {
+    int rc = 0, sets = pipeline_consistency_sets(r);
+    for (int k = sets; k < 3; k++) {
+        cJSON_AddNullToObject(j, NAMES[k]);
+        psnr[k] = NAN;
+    }
+    for (int k = 0; k < sets && rc == 0; k++) {
         char path[4200];
         if (k != 1) { /* the restored frames share the sparse model's depth */
             gv_gaussians_free(&g);
@@ -91,19 +100,20 @@ int pipeline_consistency(const pipeline_run *r, int with_pairs, cJSON **out, dou
     return 0;
 }
 
-void pipeline_consistency_means(const double psnr[3], char *out, size_t size)
+void pipeline_consistency_means(const double psnr[3], int sets, char *out, size_t size)
 {
     char v[3][32];
     for (int k = 0; k < 3; k++)
         if (isfinite(psnr[k])) snprintf(v[k], sizeof v[k], "%.2f", psnr[k]);
         else snprintf(v[k], sizeof v[k], "- (no pixel in common)");
-    snprintf(out, size, "sparse %s, restored %s, refined %s dB", v[0], v[1], v[2]);
+    if (sets == 1) snprintf(out, size, "sparse %s dB", v[0]);
+    else snprintf(out, size, "sparse %s, restored %s, refined %s dB", v[0], v[1], v[2]);
 }
 
 void pipeline_consistency_line(const pipeline_run *r, const double psnr[3], char *out, size_t size)
 {
     char means[160];
-    pipeline_consistency_means(psnr, means, sizeof means);
+    pipeline_consistency_means(psnr, pipeline_consistency_sets(r), means, sizeof means);
     snprintf(out, size, "n=%d consistency (masked PSNR of each frame warped into its neighbours, %d pairs): %s", r->n,
              2 * (r->n_frames - 1), means);
 }
@@ -186,6 +196,13 @@ int gv_reconstruct_consistency(const char *dir, char **json, char *summary, size
         }
         pipeline_run r;
         memset(&r, 0, sizeof r);
+        gv_reconstruct_options o; /* what the sets measured depend on: whether it restored */
+        gv_reconstruct_defaults(&o);
+        char mode[32];
+        if (gv_json_string(cJSON_GetObjectItem(run, "inputs"), "restore_with", mode, sizeof mode) == 0 &&
+            gv_restore_with_parse(mode) >= 0)
+            o.restore_with = gv_restore_with_parse(mode);
+        r.opt = &o;
         char name[32];
         snprintf(name, sizeof name, "n%d", (int)n);
         rc = gv_path_join(r.dir, sizeof r.dir, dir, name) || pipeline_plan(&r, &scene, (int)n) ||

@@ -117,7 +117,7 @@ static int record_consistency(pipeline_run *r)
     cJSON_DeleteItemFromObject(r->run, "consistency");
     cJSON_AddItemToObject(r->run, "consistency", j);
     char means[160];
-    pipeline_consistency_means(psnr, means, sizeof means);
+    pipeline_consistency_means(psnr, pipeline_consistency_sets(r), means, sizeof means);
     size_t used = strlen(r->summary);
     snprintf(r->summary + used, sizeof r->summary - used, "; consistency (frames warped into their neighbours) %s",
              means);

@@ -85,7 +85,9 @@ int pipeline_evaluate(pipeline_run *r);
 int pipeline_consistency(const pipeline_run *r, int with_pairs, cJSON **out, double psnr[3]);
 /* Its one-line summary; the three means alone ("sparse 30.24, restored 30.21, refined 30.43 dB"). */
 void pipeline_consistency_line(const pipeline_run *r, const double psnr[3], char *out, size_t size);
-void pipeline_consistency_means(const double psnr[3], char *out, size_t size);
+/* The sets measured: 3, or the sparse renders alone with --no-restore (the others null, NaN). */
+int pipeline_consistency_sets(const pipeline_run *r);
+void pipeline_consistency_means(const double psnr[3], int sets, char *out, size_t size);
 /* video.c */
 int pipeline_video(pipeline_run *r);
 /* video_frames.c: the video's frames, a fly-through along the training cameras and then the

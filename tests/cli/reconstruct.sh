@@ -93,8 +93,8 @@ check "default: lean 3DGS and the gated path" test "$(first_line | sed 's| /[^ ]
 preset default: 8000 sparse iterations (base 3dgs, lean density control), models/gaussvid-small.safetensors adapted to the \
 scene (300 steps) where it has the views for it, its gate deciding restoration and refinement (1000 iterations at weight 0.3)"
 expect 1 "preset best" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset best --ckpt c.st
-check "best: 15000 iterations, CoR-GS, the gated path" test "$(first_line)" = "reconstruct, preset best: 15000 sparse \
-iterations (base corgs, lean density control), c.st adapted to the scene (300 steps) where it has the views for it, its gate \
+check "best: 15000 iterations, the gated path" test "$(first_line)" = "reconstruct, preset best: 15000 sparse \
+iterations (base 3dgs, reference density control), c.st adapted to the scene (300 steps) where it has the views for it, its gate \
 deciding restoration and refinement (1000 iterations at weight 0.3)"
 expect 1 "flags over the preset" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset fast --iters 77 \
     --densify reference --restore-with checkpoint --ckpt c.st --refine-iters 5
@@ -443,8 +443,9 @@ has "decided: no restoration or refinement (--no-restore): the sparse model only
 if [ $HAVE_FFMPEG = 1 ]; then
     exists NR/report.html
     check "the report says it" grep -q "<b>Decided:</b> no restoration or refinement (--no-restore)" NR/report.html
-    check "the no-restore video is render | ground truth" test "$(ffprobe -v error -count_frames -select_streams v:0 \
-        -show_entries stream=nb_read_frames,width,height -of csv=p=0 NR/n6/flythrough.mp4)" = "128,48,20"
+    check "the no-restore video is 33 + 20 frames of sparse (render) | ground truth" test "$(ffprobe -v error \
+        -count_frames -select_streams v:0 -show_entries stream=nb_read_frames,width,height -of csv=p=0 \
+        NR/n6/flythrough.mp4)" = "128,48,53"
 fi
 
 # A preset and a flag over it, recorded: fast (lean, no restoration) with 50 iterations.
