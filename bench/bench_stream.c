@@ -53,11 +53,25 @@ static void rss_gb(double *now, double *peak)
     if (f) fclose(f);
 }
 
+/* Bytes this process has caused to be read from the disk (read_bytes of /proc/self/io: page
+ * cache hits are not counted), in GB; -1 where the kernel does not say. */
+static double disk_read_gb(void)
+{
+    FILE *f = fopen("/proc/self/io", "r");
+    char line[128];
+    double gb = -1;
+    while (f && fgets(line, sizeof line, f))
+        if (!strncmp(line, "read_bytes:", 11)) gb = strtod(line + 11, NULL) / 1e9;
+    if (f) fclose(f);
+    return gb;
+}
+
 static void report(const char *what)
 {
     double now, peak;
     rss_gb(&now, &peak);
-    printf("  %s: %.1f CPU-s, resident %.2f GB, peak %.2f GB\n", what, process_cpu(), now, peak);
+    printf("  %s: %.1f CPU-s, resident %.2f GB, peak %.2f GB, read from disk %.2f GB\n", what, process_cpu(), now, peak,
+           disk_read_gb());
     fflush(stdout);
 }
 
@@ -208,6 +222,28 @@ static int work_forward(gv_dit *m, const gv_clip_latents *l)
     return y ? 0 : -1;
 }
 
+/* The sampler's velocity, reported after each DiT evaluation (its CPU, memory and disk read). */
+static int reported_velocity(void *ctx, const float *x, double sigma, float *v)
+{
+    gv_restore_net *net = ctx;
+    int rc = gv_restore_net_velocity(ctx, x, sigma, v);
+    char what[64];
+    snprintf(what, sizeof what, "DiT evaluation %d (sigma %.4f)", net->evaluations, sigma);
+    if (rc == 0) report(what);
+    return rc;
+}
+
+/* gv_restore_latent with each evaluation reported. */
+static int restore_latent_reported(gv_dit *m, const gv_clip_latents *l, const gv_sampler *s, float *z)
+{
+    gv_restore_net net;
+    int rc = gv_restore_net_init(&net, m, l, 1);
+    net.bf16_time = s->release;
+    if (rc == 0) rc = gv_sample(s, reported_velocity, &net, l->z_corrupt, gv_clip_latents_z_count(l), 7, z);
+    gv_restore_net_free(&net);
+    return rc;
+}
+
 /* restore's work on one clip (restore_run.c): encodes, the sampler, decodes. */
 static int work_restore(gv_dit *m, const gv_model_config *c, const stream_job *j, gv_clip_latents *l)
 {
@@ -224,7 +260,7 @@ static int work_restore(gv_dit *m, const gv_model_config *c, const stream_job *j
     }
     gv_sampler s;
     if (rc == 0) rc = gv_sampler_from_name("released", &s);
-    if (rc == 0) rc = gv_restore_latent(m, l, &s, 7, z);
+    if (rc == 0) rc = restore_latent_reported(m, l, &s, z);
     if (rc == 0) report("sampler: released, 10 Euler steps");
     for (int k = 0; rc == 0 && k < 2; k++) { /* residual decoding: D(z) and D(z-hat) */
         rc = gv_vae_decode(&vae, k ? l->z_corrupt : z, l->latent_frames, l->lh, l->lw, 0, 1, video);

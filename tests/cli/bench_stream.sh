@@ -27,6 +27,9 @@ check "the weight file is removed" bash -c "! ls '$T/w'/*.safetensors 2>/dev/nul
 
 expect 0 "restore, keeping the file" -- "$G" bench stream "${small[@]}" --work restore --keep
 has "sampler: released, 10 Euler steps"
+has "DiT evaluation 1 (sigma 0.5556)"
+has "DiT evaluation 10 (sigma 0.0926)"
+has "read from disk"
 has "VAE decode"
 check "the weight file is kept" test -f "$T/w/bench-stream-tiny-bf16.safetensors"
 
