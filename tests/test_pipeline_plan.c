@@ -142,6 +142,22 @@ static void check_refused(void)
     pipeline_plan_free(&r);
 }
 
+/* reconstruct's own downscale: the smallest of 1, 2, 4, 8 with the longer side at most 512. */
+static void check_auto_downscale(void)
+{
+    CHECK(GV_RECONSTRUCT_AUTO_SIDE == 512);
+    CHECK(gv_reconstruct_auto_downscale(256, 144) == 1);
+    CHECK(gv_reconstruct_auto_downscale(512, 512) == 1);
+    CHECK(gv_reconstruct_auto_downscale(513, 10) == 2);    /* ceil(513 / 2) = 257 */
+    CHECK(gv_reconstruct_auto_downscale(1024, 576) == 2);
+    CHECK(gv_reconstruct_auto_downscale(1025, 576) == 4);  /* ceil(1025 / 2) = 513 */
+    CHECK(gv_reconstruct_auto_downscale(1080, 1920) == 4); /* a phone's portrait: 270x480 */
+    CHECK(gv_reconstruct_auto_downscale(953, 1695) == 4);  /* COLMAP's undistorted copy of it */
+    CHECK(gv_reconstruct_auto_downscale(4032, 3024) == 8); /* 504x378 */
+    CHECK(gv_reconstruct_auto_downscale(8000, 6000) == 8); /* none suffices: the largest */
+    CHECK(gv_reconstruct_auto_downscale(1, 1) == 1);
+}
+
 int main(void)
 {
     gv_log_set_level(GV_LOG_QUIET);
@@ -153,5 +169,6 @@ int main(void)
     check_smooth_path();
     check_names();
     check_refused();
+    check_auto_downscale();
     return check_summary();
 }

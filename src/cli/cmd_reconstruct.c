@@ -94,7 +94,7 @@ int cmd_reconstruct(int argc, char **argv)
     gv_reconstruct_defaults(&o);
     o.ckpt = NULL;
     const char *intervals = NULL;
-    int seed = 0;
+    int seed = 0, downscale = -1; /* -1: not given, chosen from the images' size */
     explicit_flags x = {NULL, NULL, NULL, NULL, UNSET, UNSET, UNSET, 0, 0};
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (images/ with sparse/0 or transforms.json; gaussvid scene colmap makes one from photos)", 1},
@@ -115,7 +115,8 @@ int cmd_reconstruct(int argc, char **argv)
         {"lpips", GV_FLAG_STRING, &o.lpips, "FILE", "AlexNet-LPIPS weights (docs/LPIPS.md): add LPIPS to the evaluation", 0},
         {"fps", GV_FLAG_DOUBLE, &o.fps, "F", "frames per second of flythrough.mp4 (default 8)", 0},
         {"ffmpeg", GV_FLAG_STRING, &o.ffmpeg, "FILE", "the ffmpeg program (default: ffmpeg on the PATH)", 0},
-        {"downscale", GV_FLAG_INT, &o.downscale, "K", "image downscale 1, 2, 4 or 8 (default 1)", 0},
+        {"downscale", GV_FLAG_INT, &downscale, "K",
+         "image downscale 1, 2, 4 or 8 (default: the smallest that brings the longer side to 512 pixels or less)", 0},
         {"seed", GV_FLAG_INT, &seed, "S", "seed of the 3DGS runs and of the restorer's noise (default 0)", 0},
         {"stop-after", GV_FLAG_STRING, &o.stop_after, "STAGE", "stop after this stage: train, render, adapt, restore, refine, evaluate or video (run again to continue)", 0},
     };
@@ -139,11 +140,12 @@ int cmd_reconstruct(int argc, char **argv)
     if (parsed != GV_ARGS_OK) return gv_args_exit_code(parsed);
     if (gv_interval_parse(intervals, GV_INTERVAL_RECONSTRUCT, o.intervals, GV_RECONSTRUCT_MAX_INTERVALS, &o.n_intervals) ||
         (seed < 0 && gv_fail("--seed %d: must not be negative", seed) != 0) || apply_settings(&x, &o) ||
-        (o.downscale != 1 && o.downscale != 2 && o.downscale != 4 && o.downscale != 8 &&
-         gv_fail("--downscale %d: expected 1, 2, 4 or 8", o.downscale) != 0)) {
+        (downscale != -1 && downscale != 1 && downscale != 2 && downscale != 4 && downscale != 8 &&
+         gv_fail("--downscale %d: expected 1, 2, 4 or 8", downscale) != 0)) {
         fprintf(stderr, "gaussvid reconstruct: %s (see 'gaussvid reconstruct --help')\n", gv_last_error());
         return 2;
     }
+    if (downscale != -1) o.downscale = downscale;
     char found[4096];
     if (!o.ckpt) {
         if (default_ckpt(found, sizeof found)) return gv_report_failure();

@@ -198,6 +198,7 @@ int gv_reconstruct_consistency(const char *dir, char **json, char *summary, size
         memset(&r, 0, sizeof r);
         gv_reconstruct_options o; /* what the sets measured depend on: whether it restored */
         gv_reconstruct_defaults(&o);
+        o.downscale = (int)downscale;
         char mode[32];
         if (gv_json_string(cJSON_GetObjectItem(run, "inputs"), "restore_with", mode, sizeof mode) == 0 &&
             gv_restore_with_parse(mode) >= 0)

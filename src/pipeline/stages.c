@@ -51,7 +51,7 @@ const char *const *gv_reconstruct_stages(int *n)
 void gv_reconstruct_defaults(gv_reconstruct_options *o)
 {
     memset(o, 0, sizeof *o);
-    o->downscale = 1;
+    o->downscale = 0; /* chosen from the images' size */
     o->iters = 8000;
     o->densify = GV_DENSIFY_LEAN; /* the user's model (issue 38): the reference's quality, half its time */
     o->refine_iters = 1000;
@@ -184,8 +184,41 @@ static int run_interval(pipeline_run *r, int last)
     return 0;
 }
 
-int gv_reconstruct(const gv_reconstruct_options *o)
+int gv_reconstruct_auto_downscale(int width, int height)
 {
+    int side = width > height ? width : height, k = 1;
+    while (k < 8 && (side + k - 1) / k > GV_RECONSTRUCT_AUTO_SIDE) k *= 2;
+    return k;
+}
+
+/* The scene at the downscale asked for, or, with none asked, at the one its largest image gets. */
+static int load_scene(const gv_reconstruct_options *o, gv_scene *scene, int *downscale)
+{
+    gv_scene_options so = {.downscale = o->downscale ? o->downscale : 1};
+    if (gv_scene_load(o->scene_dir, &so, scene)) return -1;
+    *downscale = so.downscale;
+    if (o->downscale) return 0;
+    int width = 0, height = 0;
+    for (int i = 0; i < scene->n_frames; i++) {
+        if (scene->cameras[i].width > width) width = scene->cameras[i].width;
+        if (scene->cameras[i].height > height) height = scene->cameras[i].height;
+    }
+    int k = gv_reconstruct_auto_downscale(width, height);
+    if (k > 1) {
+        gv_info("%s: images of %dx%d: downscale %d chosen (the longer side at most %d pixels; --downscale 1 for the "
+                "full size)", o->scene_dir, width, height, k, GV_RECONSTRUCT_AUTO_SIDE);
+        gv_scene_free(scene);
+        so.downscale = k;
+        if (gv_scene_load(o->scene_dir, &so, scene)) return -1;
+    }
+    *downscale = k;
+    return 0;
+}
+
+int gv_reconstruct(const gv_reconstruct_options *asked)
+{
+    gv_reconstruct_options chosen = *asked; /* with the downscale decided */
+    const gv_reconstruct_options *o = &chosen;
     int last = N_STAGES - 1;
     if (o->stop_after && (last = stage_index(o->stop_after)) < 0)
         return gv_fail("--stop-after %s: not a stage (train, render, adapt, restore, refine, evaluate, video)",
@@ -196,8 +229,7 @@ int gv_reconstruct(const gv_reconstruct_options *o)
         o->restore_with == GV_RESTORE_NONE)
         return gv_fail("--stop-after %s: --no-restore has no %s stage", o->stop_after, o->stop_after);
     gv_scene scene;
-    gv_scene_options so = {.downscale = o->downscale};
-    if (gv_scene_load(o->scene_dir, &so, &scene)) return -1;
+    if (load_scene(asked, &scene, &chosen.downscale)) return -1;
     cJSON *doc = NULL;
     gv_restorer rec; /* the checkpoint's record, without its weights */
     memset(&rec, 0, sizeof rec);

@@ -58,7 +58,8 @@ typedef struct {
     int n_intervals;
     const char *out_dir;
     const char *ckpt;            /* the restorer: a cross-scene checkpoint (or a scene checkpoint) */
-    int downscale;               /* scene images: 1, 2, 4, 8 */
+    int downscale;               /* scene images: 1, 2, 4, 8; 0: chosen from their size
+                                  * (gv_reconstruct_auto_downscale) */
     int iters;                   /* sparse 3DGS iterations */
     int densify;                 /* its density control (gv_splat_densify_mode) */
     int regularize;              /* its sparse-view regularisers (GV_REGULARIZE_* bits; 0: plain
@@ -83,6 +84,12 @@ typedef struct {
 /* The defaults (docs/RECONSTRUCT.md): 8000 sparse iterations, 1000 refinement iterations at
  * weight 0.3, restoration adapted (gated), 8 frames per second, gv_adapt_defaults. */
 void gv_reconstruct_defaults(gv_reconstruct_options *o);
+/* The downscale reconstruct takes when none is given: the smallest of 1, 2, 4 and 8 that brings
+ * the longer side of a width x height image to at most GV_RECONSTRUCT_AUTO_SIDE pixels (8 when
+ * none does). A phone's 1080x1920 trains at 270x480, a 4032x3024 photo at 504x378; the shared
+ * scenes (256x144) at their size. docs/RECONSTRUCT.md "Image size" gives the measured costs. */
+#define GV_RECONSTRUCT_AUTO_SIDE 512
+int gv_reconstruct_auto_downscale(int width, int height);
 
 /* Presets (docs/RECONSTRUCT.md, "Presets"): the settings of "fast", "default" or "best" over
  * o (the sparse iterations, density control, refinement iterations, restoration, adaptation
