@@ -9,7 +9,8 @@
 #   HASH    help:CMD          'gaussvid CMD --help' of every command and subcommand it lists
 # Masked (only what a clock decides): JSON values (and safetensors metadata values) whose key
 # contains 'seconds'; the 'seconds' and 'clips_per_s' columns of .tsv logs; 'N s', 'N clips/s'
-# and 'N/s' in printed lines, and the 's/run' column of dataset stats' table. OUTDIR/work keeps the files, OUTDIR/log each command's output.
+# and 'N/s' in printed lines, and the 's/run' column of dataset stats' table. OUTDIR/work keeps
+# the files, OUTDIR/log each command's output and help text. A few minutes on one core.
 #
 # Usage: scripts/behaviour_hashes.sh GAUSSVID_BINARY OUTDIR
 # Environment: GV_SPLAT_TRAIN_FLAGS   extra flags for 'splat train' (e.g. '--densify reference'
@@ -45,76 +46,57 @@ mask_lines() {
             -e 's/[0-9]+(\.[0-9]+)?( ?)(s|clips\/s|\/s)\b/#\2\3/g'
 }
 
-# mask_file FILE: the file's bytes with clock values masked, on stdout.
-mask_file() {
+# hash_files DIR: 'HASH file:PATH' for every file under DIR (path order), clock values masked,
+# and 'HASH data:PATH' for a safetensors file's tensor part (its header without the metadata,
+# then the tensor bytes). One process for all files: a process per file took minutes.
+hash_files() {
     python3 - "$1" <<'PY'
-import json, re, struct, sys
-path = sys.argv[1]
-raw = open(path, "rb").read()
-out = sys.stdout.buffer
-seconds_value = re.compile(rb'("(?:[^"\\]|\\.)*seconds(?:[^"\\]|\\.)*"\s*:\s*)-?[0-9][0-9.eE+-]*')
+import hashlib, json, os, re, struct, sys
+top = sys.argv[1]
+# "...seconds...": NUMBER in JSON; "...seconds...": "STRING" in safetensors metadata.
+seconds_number = re.compile(rb'("(?:[^"\\]|\\.)*seconds(?:[^"\\]|\\.)*"\s*:\s*)-?[0-9][0-9.eE+-]*')
+seconds_string = re.compile(rb'("[^"]*seconds[^"]*"\s*:\s*)"(?:[^"\\]|\\.)*"')
 
-def safetensors_parts(b):
-    if len(b) < 10:
+def safetensors_header_size(b):
+    if len(b) < 10 or b[8:9] != b"{":
         return None
     n = struct.unpack("<Q", b[:8])[0]
-    if n > len(b) - 8 or b[8:9] != b"{":
-        return None
-    try:
-        header = json.loads(b[8:8 + n])
-    except ValueError:
-        return None
-    return header, b[8 + n:]
+    return n if n <= len(b) - 8 else None
 
-if path.endswith(".json"):
-    out.write(seconds_value.sub(rb'\1"#"', raw))
-elif path.endswith(".tsv"):
+def masked_tsv(raw):
     lines = raw.split(b"\n")
-    cols = lines[0].split(b"\t")
-    clock = [i for i, c in enumerate(cols) if c in (b"seconds", b"clips_per_s")]
-    for line in lines:
+    clock = [i for i, c in enumerate(lines[0].split(b"\t")) if c in (b"seconds", b"clips_per_s")]
+    out = [lines[0]]
+    for line in lines[1:]:
         f = line.split(b"\t")
-        if line is not lines[0]:
-            for i in clock:
-                if i < len(f):
-                    f[i] = b"#"
-        out.write(b"\t".join(f) + b"\n")
-else:
-    parts = safetensors_parts(raw)
-    if parts is None:
-        out.write(raw)
+        for i in clock:
+            if i < len(f):
+                f[i] = b"#"
+        out.append(b"\t".join(f))
+    return b"\n".join(out)
+
+def sha(b):
+    return hashlib.sha256(b).hexdigest()
+
+paths = []
+for root, _, files in os.walk(top):
+    paths += [os.path.relpath(os.path.join(root, f), top) for f in files]
+for path in sorted(paths, key=lambda p: p.encode()):
+    raw = open(os.path.join(top, path), "rb").read()
+    n = safetensors_header_size(raw)
+    if path.endswith(".json"):
+        print(sha(seconds_number.sub(rb'\1"#"', raw)), "file:" + path)
+    elif path.endswith(".tsv"):
+        print(sha(masked_tsv(raw)), "file:" + path)
+    elif n is not None:
+        # Without the length and the padding spaces, which change with the masked values.
+        header = raw[8:8 + n]
+        print(sha(seconds_string.sub(rb'\1"#"', header).rstrip(b" ") + raw[8 + n:]), "file:" + path)
+        tensors = json.loads(header)
+        tensors.pop("__metadata__", None)
+        print(sha(json.dumps(tensors, sort_keys=True).encode() + raw[8 + n:]), "data:" + path)
     else:
-        header, data = parts
-        meta = header.get("__metadata__", {})
-        for k in meta:
-            if "seconds" in k:
-                meta[k] = "#"
-            else:
-                meta[k] = seconds_value.sub(rb'\1"#"', meta[k].encode()).decode()
-        out.write(json.dumps(header).encode() + data)
-PY
-}
-
-# data_part FILE: a safetensors file's tensor entries and bytes (no metadata), on stdout.
-data_part() {
-    python3 - "$1" <<'PY'
-import json, struct, sys
-b = open(sys.argv[1], "rb").read()
-n = struct.unpack("<Q", b[:8])[0]
-header = json.loads(b[8:8 + n])
-header.pop("__metadata__", None)
-sys.stdout.buffer.write(json.dumps(header, sort_keys=True).encode() + b[8 + n:])
-PY
-}
-
-is_safetensors() {
-    python3 - "$1" <<'PY'
-import struct, sys
-b = open(sys.argv[1], "rb").read(9)
-ok = len(b) == 9 and b[8:9] == b"{"
-import os
-ok = ok and struct.unpack("<Q", b[:8])[0] <= os.path.getsize(sys.argv[1]) - 8
-sys.exit(0 if ok else 1)
+        print(sha(raw), "file:" + path)
 PY
 }
 
@@ -140,8 +122,10 @@ shapes = [("net.slice1.0.weight", [64, 3, 11, 11]), ("net.slice1.0.bias", [64]),
           ("net.slice3.6.weight", [384, 192, 3, 3]), ("net.slice3.6.bias", [384]),
           ("net.slice4.8.weight", [256, 384, 3, 3]), ("net.slice4.8.bias", [256]),
           ("net.slice5.10.weight", [256, 256, 3, 3]), ("net.slice5.10.bias", [256])]
-shapes += [("lin%d.model.1.weight" % i, [1, c, 1, 1]) for i, c in enumerate([64, 192, 384, 256, 256])]
-pattern = [0.0498, -0.0299, 0.02, 0.04, -0.0498, 0.01, -0.02, 0.0299, -0.01, 0.0449, -0.04, 0.015, 0.025]
+shapes += [("lin%d.model.1.weight" % i, [1, c, 1, 1])
+           for i, c in enumerate([64, 192, 384, 256, 256])]
+pattern = [0.0498, -0.0299, 0.02, 0.04, -0.0498, 0.01, -0.02, 0.0299, -0.01, 0.0449, -0.04, 0.015,
+           0.025]
 def bf16(x):
     return struct.pack("<f", x)[2:]
 header, blobs, off = {}, [], 0
@@ -171,29 +155,36 @@ run dataset_stats_runs_json dataset stats D --runs --json "${T[@]}"
 run dataset_stats dataset stats D "${T[@]}"
 run dataset_show dataset show D/clips/A_n06_000.safetensors --out sheet.png "${T[@]}"
 
-run splat_train splat train --scene A --interval 6 --iters 30 --out a6.ply --quiet "${SPLAT_FLAGS[@]}" "${T[@]}"
+run splat_train splat train --scene A --interval 6 --iters 30 --out a6.ply --quiet "${SPLAT_FLAGS[@]}" \
+    "${T[@]}"
 # Beyond issue 22's list: 700 iterations reach the densification steps (from iteration 500),
 # which 30 do not, so a change of density control shows.
 run splat_train_densify splat train --scene A --interval 6 --iters 700 --out a6_700.ply --quiet \
     "${SPLAT_FLAGS[@]}" "${T[@]}"
 run splat_eval splat eval --model a6.ply --scene A --interval 6 --json a6_eval.json "${T[@]}"
-run splat_render splat render --model a6.ply --scene A --interval 6 --out render --depth --opacity --quiet "${T[@]}"
+run splat_render splat render --model a6.ply --scene A --interval 6 --out render --depth --opacity \
+    --quiet "${T[@]}"
 run splat_export splat export a6.ply --out a6.splat "${T[@]}"
 
 run vae_train vae train --config tiny --scenes A --steps 2 --crop 32x32 --stats-clips 2 --out vae.safetensors \
     --quiet "${T[@]}"
-PRE=(--clips D --config tiny --vae vae.safetensors --steps 4 --batch 2 --checkpoint-every 1 --seed 1 --quiet "${T[@]}")
+PRE=(--clips D --config tiny --vae vae.safetensors --steps 4 --batch 2 --checkpoint-every 1 --seed 1
+     --quiet "${T[@]}")
 run pretrain pretrain "${PRE[@]}" --out base.safetensors --log pre.tsv
 run pretrain_stop pretrain "${PRE[@]}" --out base2.safetensors --log pre2.tsv --stop-after 2
 run pretrain_resume pretrain "${PRE[@]}" --out base2.safetensors --log pre2.tsv --resume
-FT=(--clips D --base base.safetensors --steps 4 --batch 2 --latent-warmup 1 --checkpoint-every 2 --quiet "${T[@]}")
+FT=(--clips D --base base.safetensors --steps 4 --batch 2 --latent-warmup 1 --checkpoint-every 2
+    --quiet "${T[@]}")
 run train train "${FT[@]}" --out ft.safetensors --log ft.tsv
 run train_stop train "${FT[@]}" --out ft2.safetensors --log ft2.tsv --stop-after 1
 run train_resume train "${FT[@]}" --out ft2.safetensors --log ft2.tsv --resume
-run train_val train "${FT[@]}" --out val.safetensors --log val_train.tsv --val-clips D --val-log val.tsv
+run train_val train "${FT[@]}" --out val.safetensors --log val_train.tsv --val-clips D \
+    --val-log val.tsv
 
-run restore restore --ckpt ft.safetensors --clips D --split eval --out R --save-clips --quiet "${T[@]}"
-run restore_clip restore --ckpt ft.safetensors --clip D/clips/B_n06_000.safetensors --out R1 --quiet "${T[@]}"
+run restore restore --ckpt ft.safetensors --clips D --split eval --out R --save-clips --quiet \
+    "${T[@]}"
+run restore_clip restore --ckpt ft.safetensors --clip D/clips/B_n06_000.safetensors --out R1 --quiet \
+    "${T[@]}"
 EV=(--ckpt ft.safetensors --clips D --quiet "${T[@]}")
 run eval eval "${EV[@]}" --json eval.json
 run eval_identity eval "${EV[@]}" --identity --json eval_identity.json
@@ -208,13 +199,7 @@ run metrics_lpips metrics A/images/frame_00003.png B/images/frame_00003.png --lp
     "${T[@]}"
 
 # Every file in the work folder, by path.
-(cd "$W" && find . -type f | LC_ALL=C sort) | while read -r f; do
-    f=${f#./}
-    printf '%s file:%s\n' "$(mask_file "$W/$f" | hash_of)" "$f" >>"$H"
-    if is_safetensors "$W/$f"; then
-        printf '%s data:%s\n' "$(data_part "$W/$f" | hash_of)" "$f" >>"$H"
-    fi
-done
+hash_files "$W" >>"$H"
 
 # subcommands_of TEXT: the names listed under 'commands:' or 'subcommands:' in a help text.
 subcommands_of() {
@@ -229,7 +214,8 @@ for c in $("$G" help 2>/dev/null | subcommands_of); do
     # A subcommand of a command that does work itself is named in its text ('gaussvid
     # metrics consistency DIR'), not listed.
     subs=$( (printf '%s\n' "$text" | subcommands_of
-             printf '%s\n' "$text" | grep -oE "'gaussvid $c [a-z]+" | cut -d' ' -f3) | LC_ALL=C sort -u)
+             printf '%s\n' "$text" | grep -oE "'gaussvid $c [a-z]+" | cut -d' ' -f3) |
+        LC_ALL=C sort -u)
     for s in $subs; do
         printf '%s help:%s %s\n' "$("$G" "$c" "$s" --help 2>&1 | hash_of)" "$c" "$s" >>"$H"
         "$G" "$c" "$s" --help >"$OUT/log/help_${c}_$s.txt" 2>&1
