@@ -28,7 +28,7 @@ typedef struct {
     const gv_reconstruct_options *opt;
     const gv_scene *scene;
     char scene_name[GV_SCENE_NAME_MAX];
-    int n;                       /* the interval */
+    int interval;                /* n */
     int smooth_path;             /* 1: every view trains (n = 1), the frames are a path */
     char dir[4096];              /* DIR/nN */
     int n_train, *train;         /* training frames */

@@ -29,7 +29,7 @@ int pipeline_plan_adaptation(pipeline_run *r)
     if (scene_ckpt == 1) return 0; /* adapted already: its own gate decides */
     if (r->smooth_path)
         snprintf(r->no_adapt, sizeof r->no_adapt, "every view trains (n = 1), so no view is left to pair with");
-    else if (gv_internal_check(r->scene->n_frames, r->n))
+    else if (gv_internal_check(r->scene->n_frames, r->interval))
         snprintf(r->no_adapt, sizeof r->no_adapt, "%s", gv_last_error());
     else
         r->adapt = 1;
@@ -51,7 +51,7 @@ int pipeline_adapt(pipeline_run *r)
     gv_adapt_options a = r->opt->adapt_options;
     if (restorer_path(r)) return -1;
     a.scene_dir = r->opt->scene_dir;
-    a.interval = r->n;
+    a.interval = r->interval;
     a.base = r->opt->ckpt;
     a.out = r->restorer;
     a.work_dir = NULL;
@@ -115,7 +115,7 @@ static int write_clip(pipeline_run *r, const gv_gaussians *sparse, int c, const 
     memset(&info, 0, sizeof info);
     snprintf(info.id.scene, sizeof info.id.scene, "%s", r->scene_name);
     snprintf(info.id.split, sizeof info.id.split, "eval");
-    info.id.n = r->smooth_path ? 4 : r->n; /* a path's frames are numbered 4k + j */
+    info.id.interval = r->smooth_path ? 4 : r->interval; /* a path's frames are numbered 4k + j */
     info.anchor_gap = 1;
     info.iters = r->opt->iters;
     info.sampling = GV_SAMPLING_UNIFORM;

@@ -165,21 +165,21 @@ static int run_interval(pipeline_run *r, int last)
         char why[256];
         if (!redo && pipeline_stage_done(r, s->name, s->inputs, why, sizeof why)) {
             if (outputs_exist(r, s)) {
-                gv_info("n=%d %s: done before, skipped", r->n, s->name);
+                gv_info("n=%d %s: done before, skipped", r->interval, s->name);
                 continue;
             }
-            gv_info("n=%d %s: some of its files are missing: done again", r->n, s->name);
+            gv_info("n=%d %s: some of its files are missing: done again", r->interval, s->name);
         } else if (!redo && why[0]) {
-            gv_info("n=%d %s: made before with %s: done again", r->n, s->name, why);
+            gv_info("n=%d %s: made before with %s: done again", r->interval, s->name, why);
         }
         redo = 1;
         pipeline_stage_forget(r, s->name);
         r->summary[0] = 0;
         double wall = gv_now(), cpu = cpu_seconds();
-        if (s->run(r)) return gv_fail_context("n=%d %s", r->n, s->name);
+        if (s->run(r)) return gv_fail_context("n=%d %s", r->interval, s->name);
         wall = gv_now() - wall, cpu = cpu_seconds() - cpu;
         if (pipeline_stage_record(r, s->name, s->inputs, wall, cpu)) return -1;
-        if (r->opt->on_stage) r->opt->on_stage(r->opt->on_stage_ctx, r->n, s->name, r->summary, wall, cpu);
+        if (r->opt->on_stage) r->opt->on_stage(r->opt->on_stage_ctx, r->interval, s->name, r->summary, wall, cpu);
     }
     return 0;
 }
@@ -220,7 +220,7 @@ int gv_reconstruct(const gv_reconstruct_options *o)
              pipeline_plan_adaptation(&r) || gv_mkdirs(r.dir) || pipeline_doc_run(&r) || pipeline_doc_write(&r);
         if (rc == 0) {
             gv_atomic_sweep(r.dir, NULL);
-            gv_info("n=%d: %d training views, %d %s frames in %d clips", r.n, r.n_train, r.n_frames,
+            gv_info("n=%d: %d training views, %d %s frames in %d clips", r.interval, r.n_train, r.n_frames,
                     r.smooth_path ? "path" : "held-out", r.n_clips);
             rc = run_interval(&r, last);
         }
