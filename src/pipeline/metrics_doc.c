@@ -223,6 +223,13 @@ void pipeline_decision(pipeline_run *r, const char *what, int ran, const char *w
     cJSON_AddItemToObject(d, what, decision_json(ran, why));
 }
 
+int pipeline_decision_ran(const pipeline_run *r, const char *what)
+{
+    const cJSON *d = cJSON_GetObjectItem(r->run, "decisions");
+    const cJSON *ran = cJSON_GetObjectItem(cJSON_GetObjectItem(d, what), "ran");
+    return cJSON_IsBool(ran) ? cJSON_IsTrue(ran) : -1;
+}
+
 void pipeline_decision_gate(pipeline_run *r, const char *gate)
 {
     cJSON *d = cJSON_GetObjectItem(r->run, "decisions");

@@ -142,10 +142,10 @@ static int keep_sparse(pipeline_run *r, const char *why)
 
 int pipeline_refine(pipeline_run *r)
 {
-    char why[700];
-    int decision = pipeline_restoration_decision(r, 0, why, sizeof why);
-    if (decision < 0) return -1;
-    if (decision == 0) return keep_sparse(r, "nothing was restored");
+    /* what the restore stage decided, here or in the run this one resumes (metrics.json) */
+    int restored = pipeline_decision_ran(r, "restoration");
+    if (restored < 0) return gv_fail("%s: metrics.json records no restoration decision", r->dir);
+    if (restored == 0) return keep_sparse(r, "nothing was restored");
     pipeline_decision(r, "refinement", 1, NULL);
     gv_gaussians sparse = {0};
     view_set views = {0};

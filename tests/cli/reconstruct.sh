@@ -7,7 +7,8 @@
 # (restored frames replaced by the ground truth beat restored frames replaced by the renders);
 # the smooth path of n = 1; the adapt stage; the gated default (a scene with too few views to
 # adapt keeps the sparse model; a closed gate skips restoration and refinement); --no-restore;
-# the presets and the flags over them; bad input gives one line and a non-zero exit.
+# the presets and the flags over them; the restorer opened once by restore and not by refine
+# (strace); bad input gives one line and a non-zero exit.
 # Usage: bash reconstruct.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup reconstruct "$1"
@@ -361,6 +362,38 @@ fi
 expect 0 "a scene checkpoint, to the end" -- "$G" reconstruct "${RC[@]}" --ckpt A/n6/restorer.safetensors --out SC
 has "adapted to the scene where it has the views for it:"
 has "decided: restoration mode checkpoint; adaptation skipped (--restore-with checkpoint); the gate is"
+# One open of the restorer per reading (issue 40): the checks before the stages, then the restore
+# stage (its weights only when its gate is open, as here); refine reads restore's decision from
+# metrics.json, so a resumed refine opens it only for the checks. Counted with strace when present.
+python3 "$(dirname "$0")/lib/pad_checkpoint.py" meta A/n6/restorer.safetensors open.safetensors gate=open
+if command -v strace >/dev/null && strace -f -e trace=openat -o /dev/null true 2>/dev/null; then
+    opens() { grep -v ENOENT opens.log | grep -cE "(\"|/)$1\""; }
+    strace -f -e trace=openat,open -o opens.log "$G" reconstruct "${RC[@]}" --ckpt open.safetensors --out SO \
+        --stop-after refine --quiet >/dev/null 2>&1
+    check "restored and refined under strace" python3 -c "
+import json; d = json.load(open('SO/metrics.json'))['runs'][0]['decisions']
+assert d['gate'] == 'open' and d['restoration']['ran'] and d['refinement']['ran'], d"
+    n=$(opens open.safetensors)
+    check "the restorer opened for the checks and by restore alone (opened $n times)" test "$n" -eq 2
+    strace -f -e trace=openat,open -o opens.log "$G" reconstruct "${RC[@]}" --ckpt open.safetensors --out SO \
+        --stop-after refine --refine-iters 41 >"$T/out" 2>"$T/err"
+    check "restore skipped" grep -q "n=6 restore: done before, skipped" "$T/err"
+    has "n=6 refine: 41 iterations on 5 training views (weight 1) and 20 restored frames"
+    n=$(opens open.safetensors)
+    check "a resumed refine reads the decision, not the restorer (opened $n times)" test "$n" -eq 1
+else
+    echo "skipped: no working strace to count the opens"
+    expect 0 "restore and refine, gate open" -- "$G" reconstruct "${RC[@]}" --ckpt open.safetensors --out SO \
+        --stop-after refine
+fi
+# A metrics.json from before decisions were recorded: restore runs again to decide.
+python3 -c "
+import json; d = json.load(open('SO/metrics.json')); del d['runs'][0]['decisions']['restoration']
+json.dump(d, open('SO/metrics.json', 'w'))"
+expect 0 "no restoration decision recorded" -- "$G" reconstruct "${RC[@]}" --ckpt open.safetensors --out SO \
+    --stop-after refine
+check "restore redone" grep -q "n=6 restore: its decision is not recorded (an older metrics.json): done again" "$T/err"
+has "n=6 refine: 40 iterations on 5 training views"
 # --adapt to the end: the report's restorer is the base adapted per n, with one gate per n.
 expect 0 "adapt, to the end" -- "$G" reconstruct "${RC0[@]}" --adapt --adapt-config tiny1.json --adapt-steps 2 --out A
 check "the report: one gate per n" grep -q "one per n: see each interval" A/report.html
