@@ -361,7 +361,7 @@ fi
 # ... to the end: the summary says the restorer was adapted and what its gate decided.
 expect 0 "a scene checkpoint, to the end" -- "$G" reconstruct "${RC[@]}" --ckpt A/n6/restorer.safetensors --out SC
 has "adapted to the scene where it has the views for it:"
-has "decided: restoration mode checkpoint; adaptation skipped (--restore-with checkpoint); the gate is"
+has "decided: Restoration mode checkpoint. Adaptation skipped: --restore-with checkpoint. The gate is"
 # One open of the restorer per reading (issue 40): the checks before the stages, then the restore
 # stage (its weights only when its gate is open, as here); refine reads restore's decision from
 # metrics.json, so a resumed refine opens it only for the checks. Counted with strace when present.
@@ -427,8 +427,8 @@ else:
 print(d["gate"])
 PY
 check "the gate's decision is kept" python3 check_gate.py A 6
-has "decided: restoration mode adapted; adaptation ran; the gate is"
-check "the report says what was decided" grep -q "<b>Decided:</b> restoration mode adapted; adaptation ran; the gate is" A/report.html
+has "decided: Restoration mode adapted. Adaptation ran. The gate is"
+check "the report says what was decided" grep -q "<b>Decided:</b> Restoration mode adapted. Adaptation ran. The gate is" A/report.html
 
 # The gated default where the scene has too few training views to adapt (n = 8: 4 views;
 # the internal pairs need 5): the sparse model is kept, one line says why, no network runs.
@@ -453,9 +453,9 @@ for f in run['frames']:
         assert f[kind] == f['sparse'], (f, kind)
 assert filecmp.cmp('F/n8/sparse.ply', 'F/n8/refined.ply', shallow=False)
 assert run['all_held_out']['refined'] == run['all_held_out']['sparse']"
-has "decided: restoration mode adapted; adaptation skipped (cannot run here: 25 frames give 4 training views at n = 8 \
-(frames 0, 8, ...); scene-internal pairs need at least 5 (at least 33 frames)); restoration skipped (adaptation cannot \
-run here): the restored frames are the renders; refinement skipped (nothing was restored): the refined model is the sparse model"
+has "decided: Restoration mode adapted. Adaptation skipped: cannot run here: 25 frames give 4 training views at n = 8 \
+(frames 0, 8, ...); scene-internal pairs need at least 5 (at least 33 frames). Restoration skipped: adaptation cannot \
+run here. The restored frames are the renders. Refinement skipped: nothing was restored. The refined model is the sparse model."
 
 # --no-restore: the sparse model, its renders, evaluation, video and report; no restorer is
 # needed (the checkpoint named does not exist) and no restored or refined frame is written.
@@ -472,10 +472,10 @@ assert run['means']['restored'] is None and run['means']['refined'] is None and 
 assert run['means']['sparse'] == full['means']['sparse'], (run['means'], full['means'])
 for f in run['frames']:
     assert f['images']['restored'] is None and f['images']['refined'] is None and f['restored'] is None and f['refined'] is None"
-has "decided: no restoration or refinement (--no-restore): the sparse model only"
+has "decided: No restoration or refinement (--no-restore): the sparse model only."
 if [ $HAVE_FFMPEG = 1 ]; then
     exists NR/report.html
-    check "the report says it" grep -q "<b>Decided:</b> no restoration or refinement (--no-restore)" NR/report.html
+    check "the report says it" grep -q "<b>Decided:</b> No restoration or refinement (--no-restore): the sparse model only.</p>" NR/report.html
     check "the no-restore video is 33 + 20 frames of sparse (render) | ground truth" test "$(ffprobe -v error \
         -count_frames -select_streams v:0 -show_entries stream=nb_read_frames,width,height -of csv=p=0 \
         NR/n6/flythrough.mp4)" = "128,48,53"
