@@ -39,7 +39,7 @@ static int make_set(const gv_model_config *c, int height, int width, gv_latent_s
     int tf = c->vae.temporal_factor, sf = c->vae.spatial_factor;
     for (int i = 0; i < CLIPS; i++) {
         gv_clip_latents *l = &set->clips[i];
-        l->n = 6 + 6 * i, l->frames = 5, l->height = height, l->width = width, l->batch = 1;
+        l->interval = 6 + 6 * i, l->frames = 5, l->height = height, l->width = width, l->batch = 1;
         l->z_dim = c->vae.z_dim, l->latent_frames = 1 + 4 / tf, l->lh = height / sf, l->lw = width / sf;
         l->vace_dim = c->dit.vace_in_dim;
         l->plucker_frames = gv_plucker_packed_frames(5, tf);

@@ -53,7 +53,7 @@ static void test_variants(void)
         CHECK(rf_make_clip(&clip, "room", "train", 6, W, H, 40, 3) == 0);
         gv_clip_latents l;
         CHECK(gv_clip_latents_prepare(&vae, &cfg, &clip, &l) == 0);
-        CHECK(l.batch == 1 && l.frames == 5 && l.height == H && l.width == W && l.n == 6);
+        CHECK(l.batch == 1 && l.frames == 5 && l.height == H && l.width == W && l.interval == 6);
         CHECK(l.z_dim == 4 && l.latent_frames == 2 && l.lh == 4 && l.lw == 4 && l.vace_dim == 72);
         CHECK(l.plucker && l.plucker_frames == 8 && gv_clip_latents_plucker_count(&l) == 6 * 8 * H * W);
         int64_t nz = gv_clip_latents_z_count(&l), per = nz; /* batch 1: one latent */
@@ -159,7 +159,7 @@ static void test_crop(void)
     const int y = 1, x = l.lw / 2, h = l.lh - 2, w = l.lw - x, sf = H / l.lh;
     CHECK(h >= 1 && w >= 1 && sf == vae.cfg.spatial_factor);
     CHECK(gv_clip_latents_crop(&l, y, x, h, w, &c) == 0);
-    CHECK(c.lh == h && c.lw == w && c.height == h * sf && c.width == w * sf && c.n == l.n && c.batch == l.batch);
+    CHECK(c.lh == h && c.lw == w && c.height == h * sf && c.width == w * sf && c.interval == l.interval && c.batch == l.batch);
     int z_planes = l.z_dim * l.latent_frames, v_planes = l.vace_dim * l.latent_frames, bad = 0;
     for (int p = 0; p < v_planes; p++)
         for (int r = 0; r < h; r++)
@@ -227,7 +227,7 @@ static int same_set(const gv_latent_set *a, const gv_latent_set *b)
     for (int i = 0; i < a->count; i++) {
         const gv_clip_latents *x = &a->clips[i], *y = &b->clips[i];
         int64_t nz = gv_clip_latents_z_count(x), nv = gv_clip_latents_vace_count(x), np = gv_clip_latents_plucker_count(x);
-        if (strcmp(a->names[i], b->names[i]) || nz != gv_clip_latents_z_count(y) || x->n != y->n ||
+        if (strcmp(a->names[i], b->names[i]) || nz != gv_clip_latents_z_count(y) || x->interval != y->interval ||
             memcmp(x->z_clean, y->z_clean, (size_t)nz * 4) || memcmp(x->z_corrupt, y->z_corrupt, (size_t)nz * 4) ||
             memcmp(x->vace, y->vace, (size_t)nv * 4) || memcmp(x->plucker, y->plucker, (size_t)np * 4))
             return 0;
@@ -247,7 +247,7 @@ static void test_cache(const char *tmp)
     gv_latent_set a, b, c;
     CHECK(gv_latent_set_load(dir, "train", "tiny-vae", &vae, &cfg, &a) == 0);
     CHECK(a.count == 2 && a.encoded == 2 && gv_file_exists(a.cache_path));
-    CHECK(!strcmp(a.names[0], "clips/alpha_n06_000.safetensors") && a.clips[0].n == 6 && a.clips[1].n == 8);
+    CHECK(!strcmp(a.names[0], "clips/alpha_n06_000.safetensors") && a.clips[0].interval == 6 && a.clips[1].interval == 8);
     /* each entry is exactly what prepare gives for that clip */
     gv_clip clip;
     snprintf(path, sizeof path, "%s/%s", dir, a.names[1]);

@@ -197,7 +197,7 @@ static void make_clip(gv_clip *clip, int w, int h, uint64_t seed)
     gv_clip_info info = {0};
     snprintf(info.id.scene, sizeof info.id.scene, "room-7");
     snprintf(info.id.split, sizeof info.id.split, "eval");
-    info.id.n = 6, info.anchor_gap = 1, info.iters = 8000, info.width = w, info.height = h;
+    info.id.interval = 6, info.anchor_gap = 1, info.iters = 8000, info.width = w, info.height = h;
     info.sampling = GV_SAMPLING_UNIFORM;
     info.seed = 12345678901234ull;
     const int frames[5] = {12, 14, 15, 16, 18};
@@ -227,7 +227,7 @@ static int same_clip(const gv_clip *a, const gv_clip *b)
 {
     const gv_clip_info *x = &a->info, *y = &b->info;
     size_t bytes = (size_t)5 * x->width * x->height * 3;
-    return !strcmp(x->id.scene, y->id.scene) && !strcmp(x->id.split, y->id.split) && x->id.n == y->id.n &&
+    return !strcmp(x->id.scene, y->id.scene) && !strcmp(x->id.split, y->id.split) && x->id.interval == y->id.interval &&
            x->anchor_gap == y->anchor_gap && x->iters == y->iters && x->width == y->width &&
            x->height == y->height && x->sampling == y->sampling && x->seed == y->seed &&
            !memcmp(x->frames, y->frames, sizeof x->frames) &&
@@ -293,7 +293,7 @@ static void write_tampered2(const char *path, const gv_clip *clip, const char *k
 {
     const gv_clip_info *in = &clip->info;
     char n[16], w[16], h[16];
-    snprintf(n, sizeof n, "%d", in->id.n), snprintf(w, sizeof w, "%d", in->width), snprintf(h, sizeof h, "%d", in->height);
+    snprintf(n, sizeof n, "%d", in->id.interval), snprintf(w, sizeof w, "%d", in->width), snprintf(h, sizeof h, "%d", in->height);
     const char *meta[][2] = {{"format", "gaussvid.clip"}, {"format_version", "1"}, {"scene", in->id.scene},
                              {"split", in->id.split}, {"n", n}, {"anchor_gap", "1"},
                              {"frame_indices", "[12, 14, 15, 16, 18]"}, {"iters", "8000"},
@@ -446,7 +446,7 @@ static gv_manifest_clip clip_entry(const char *scene, int n, int k, const char *
     gv_clip_file_name(c.file, sizeof c.file, scene, n, k);
     snprintf(c.id.scene, sizeof c.id.scene, "%s", scene);
     snprintf(c.id.split, sizeof c.id.split, "%s", split);
-    c.id.n = n;
+    c.id.interval = n;
     int f[5] = {s, s + 2, s + 3, s + 4, s + n};
     memcpy(c.frames, f, sizeof f);
     return c;
@@ -555,7 +555,7 @@ static void test_run_record(const char *dir)
     gv_run_record r = {0}, back;
     snprintf(r.id.scene, sizeof r.id.scene, "courtyard");
     snprintf(r.id.split, sizeof r.id.split, "train");
-    r.id.n = 10, r.iters = 8000, r.n_train = 16, r.n_clips = 4;
+    r.id.interval = 10, r.iters = 8000, r.n_train = 16, r.n_clips = 4;
     r.seconds = 120.25, r.train_seconds = 100.5, r.render_seconds = 18.0;
     r.train_frames = 16, r.train_psnr = 33.5, r.train_ssim = 0.96875;
     CHECK(gv_run_record_alloc(&r, 3) == 0);
@@ -566,7 +566,7 @@ static void test_run_record(const char *dir)
     CHECK_NEAR(r.ssim_mean, 0.75, 1e-12);
     CHECK(gv_run_record_write(path, &r) == 0);
     CHECK(gv_run_record_read(path, &back) == 0);
-    CHECK(!strcmp(back.id.scene, "courtyard") && back.id.n == 10 && back.iters == 8000 &&
+    CHECK(!strcmp(back.id.scene, "courtyard") && back.id.interval == 10 && back.iters == 8000 &&
           back.n_train == 16 && back.n_clips == 4 && back.n_held_out == 3);
     CHECK(back.held_out[2] == 3 && back.psnr[1] == 22.25 && back.ssim[0] == 0.5);
     CHECK_NEAR(back.psnr_mean, r.psnr_mean, 1e-9);

@@ -147,7 +147,7 @@ static void check_clips(const char *out, const gv_manifest *m)
         const char *dir = !strcmp(e->id.scene, "alpha") ? scene_a : scene_b;
         gv_scene scene;
         CHECK(gv_scene_load(dir, NULL, &scene) == 0);
-        ok &= !strcmp(clip.info.id.scene, e->id.scene) && clip.info.id.n == e->id.n &&
+        ok &= !strcmp(clip.info.id.scene, e->id.scene) && clip.info.id.interval == e->id.interval &&
               !memcmp(clip.info.frames, e->frames, sizeof e->frames) &&
               !strcmp(clip.info.id.split, !strcmp(e->id.scene, "beta") ? "eval" : "train") &&
               clip.info.width == W && clip.info.height == H && clip.info.seed == 11;
@@ -161,7 +161,7 @@ static void check_clips(const char *out, const gv_manifest *m)
             const uint8_t *target = gv_clip_frame(clip.targets, &clip.info, f);
             for (int p = 0; p < W * H * 3; p++) {
                 ok &= target[p] == truth.pixels[p];
-                ok &= input[p] == ((f == 0 || f == 4) ? truth.pixels[p] : corrupt(truth.pixels[p], e->id.n));
+                ok &= input[p] == ((f == 0 || f == 4) ? truth.pixels[p] : corrupt(truth.pixels[p], e->id.interval));
             }
             const gv_camera *cam = &scene.cameras[frame];
             ok &= clip.intrinsics[f][0] == (float)cam->fx && clip.intrinsics[f][3] == (float)cam->cy;
@@ -257,11 +257,11 @@ static void test_build_and_resume(const char *base)
     gv_manifest cut;
     gv_manifest_init(&cut, &m.params);
     for (int i = 0; i < m.n_runs; i++) {
-        if (!strcmp(m.runs[i].id.scene, "beta") && m.runs[i].id.n == 8) continue;
+        if (!strcmp(m.runs[i].id.scene, "beta") && m.runs[i].id.interval == 8) continue;
         gv_manifest_clip clips[8];
         int k = 0;
         for (int j = 0; j < m.n_clips; j++)
-            if (!strcmp(m.clips[j].id.scene, m.runs[i].id.scene) && m.clips[j].id.n == m.runs[i].id.n) clips[k++] = m.clips[j];
+            if (!strcmp(m.clips[j].id.scene, m.runs[i].id.scene) && m.clips[j].id.interval == m.runs[i].id.interval) clips[k++] = m.clips[j];
         gv_manifest_add_run(&cut, &m.runs[i], clips, k);
     }
     CHECK(gv_manifest_write(out, &cut) == 0 && cut.n_runs == 3);
@@ -324,8 +324,8 @@ static void test_build_and_resume(const char *base)
     gv_dataset_stats st;
     CHECK(gv_dataset_stats_read(out, &st) == 0);
     CHECK(st.n_runs == 4 && st.n_clips == 8 && st.n_scenes == 2 && st.n_rows == 2);
-    CHECK(st.rows[0].n == 6 && st.rows[0].clips_train == 2 && st.rows[0].clips_eval == 2 && st.rows[0].runs == 2);
-    CHECK(st.rows[1].n == 8 && st.rows[1].clips_train == 2 && st.rows[1].clips_eval == 2);
+    CHECK(st.rows[0].interval == 6 && st.rows[0].clips_train == 2 && st.rows[0].clips_eval == 2 && st.rows[0].runs == 2);
+    CHECK(st.rows[1].interval == 8 && st.rows[1].clips_train == 2 && st.rows[1].clips_eval == 2);
     CHECK(st.rows[0].frames == 2 * 16 && st.rows[1].frames == 2 * 17);
     CHECK(st.rows[0].psnr > st.rows[1].psnr + 1 && st.rows[0].ssim > st.rows[1].ssim);
     free(before);

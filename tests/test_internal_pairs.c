@@ -177,7 +177,7 @@ static void test_clip_format(const char *base)
     memset(&info, 0, sizeof info);
     snprintf(info.id.scene, sizeof info.id.scene, "s");
     snprintf(info.id.split, sizeof info.id.split, "train");
-    info.id.n = 6, info.anchor_gap = 1, info.iters = 5, info.width = 4, info.height = 2, info.offset = 3;
+    info.id.interval = 6, info.anchor_gap = 1, info.iters = 5, info.width = 4, info.height = 2, info.offset = 3;
     const int frames[5] = {3, 5, 6, 7, 9};
     memcpy(info.frames, frames, sizeof frames);
     info.no_target[1] = info.no_target[3] = 1;
@@ -256,7 +256,7 @@ static void check_clips(const char *out, int subsets)
     gv_manifest m;
     int found = 0;
     CHECK(gv_manifest_read(out, &m, &found) == 0 && found);
-    CHECK(m.n_runs == 1 && m.runs[0].id.n == 2 * N && !strcmp(m.runs[0].id.scene, "room") && !strcmp(m.runs[0].id.split, "train"));
+    CHECK(m.n_runs == 1 && m.runs[0].id.interval == 2 * N && !strcmp(m.runs[0].id.scene, "room") && !strcmp(m.runs[0].id.split, "train"));
     CHECK(m.n_clips == 5 && m.params.iters == 7 && m.params.seed == 4 && m.params.clips_per_run == 5);
     CHECK(m.params.densify == GV_DENSIFY_MCMC); /* recorded as asked (not the default) */
     gv_internal_clip plan[FRAMES];
@@ -272,7 +272,7 @@ static void check_clips(const char *out, int subsets)
         CHECK(gv_clip_read(path, &c) == 0);
         const gv_clip_info *info = &c.info;
         int view = i + 1, first = (view % subsets) * N; /* the first view that view k's subset lacks */
-        CHECK(info->id.n == 2 * N && info->offset == i % 2 * N && info->iters == 7 && !strcmp(info->id.split, "train"));
+        CHECK(info->id.interval == 2 * N && info->offset == i % 2 * N && info->iters == 7 && !strcmp(info->id.split, "train"));
         CHECK(info->subsets == (subsets == 2 ? 0 : subsets));
         CHECK(!memcmp(info->frames, plan[i].frames, sizeof info->frames));
         /* masked: the two held-out frames; the left-out view in the middle has ground truth */
@@ -294,7 +294,7 @@ static void check_clips(const char *out, int subsets)
     snprintf(path, sizeof path, "%s/runs/room_n06.json", out);
     gv_run_record r;
     CHECK(gv_run_record_read(path, &r) == 0);
-    CHECK(r.id.n == 6 && r.n_held_out == 5 && r.n_train == 7 && r.n_clips == 5);
+    CHECK(r.id.interval == 6 && r.n_held_out == 5 && r.n_train == 7 && r.n_clips == 5);
     for (int i = 0; i < r.n_held_out; i++) CHECK(r.held_out[i] == 3 * (i + 1) && r.psnr[i] > 0 && r.psnr[i] < 40);
     gv_run_record_free(&r);
 }
@@ -432,7 +432,7 @@ static void test_build_harm(const char *base)
     gv_manifest m;
     int found = 0;
     CHECK(gv_manifest_read(out, &m, &found) == 0 && found);
-    CHECK(m.n_runs == 1 && m.runs[0].id.n == 2 * N && m.n_clips == 5); /* the pairs' metadata */
+    CHECK(m.n_runs == 1 && m.runs[0].id.interval == 2 * N && m.n_clips == 5); /* the pairs' metadata */
     gv_internal_clip plan[FRAMES];
     int count;
     CHECK(gv_internal_plan(FRAMES, N, 2, plan, &count) == 0 && count == 5);
@@ -444,7 +444,7 @@ static void test_build_harm(const char *base)
         gv_clip c;
         CHECK(gv_clip_read(path, &c) == 0);
         const gv_clip_info *info = &c.info;
-        CHECK(info->id.n == 2 * N && info->offset == i % 2 * N);
+        CHECK(info->id.interval == 2 * N && info->offset == i % 2 * N);
         CHECK(!memcmp(info->frames, plan[i].frames, sizeof info->frames));
         CHECK(!info->no_target[0] && info->no_target[1] && !info->no_target[2] && info->no_target[3] && !info->no_target[4]);
         for (int f = 1; f < 4; f++) /* rendered by the full model (it lacks no view: the fake calls it 7 N) */

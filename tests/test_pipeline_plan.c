@@ -50,7 +50,7 @@ static void check_held_out(int n_frames, int n, int want_clips)
         memset(&info, 0, sizeof info);
         snprintf(info.id.scene, sizeof info.id.scene, "tiny");
         snprintf(info.id.split, sizeof info.id.split, "eval");
-        info.id.n = n, info.anchor_gap = 1, info.width = 64, info.height = 48;
+        info.id.interval = n, info.anchor_gap = 1, info.width = 64, info.height = 48;
         for (int i = 0; i < GV_CLIP_FRAMES; i++) info.frames[i] = entry_frame(&r, r.clips[c][i]);
         CHECK(gv_clip_check_info(&info, "clip") == 0);
         for (int slot = 1; slot <= 3; slot++) {

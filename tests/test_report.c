@@ -66,7 +66,7 @@ static const char METRICS[] =
     "                    \"refined\": {\"psnr\": 26.0625, \"ssim\": 0.88, \"lpips\": null, \"frames\": 4}},\n"
     "   \"restorer\": {\"checkpoint\": \"n6/restorer.safetensors\", \"kind\": \"scene\", \"gate\": \"closed\"},\n"
     "   \"decisions\": {\"restore_with\": \"adapted\", \"gate\": \"closed\", \"adaptation\": {\"ran\": true, \"why\": null},\n"
-    "                 \"restoration\": {\"ran\": false, \"why\": \"the gate is <closed>\"}, \"refinement\": null},\n"
+    "                 \"restoration\": {\"ran\": false, \"why\": \"the gate is <closed> (-0.12 dB)\"}, \"refinement\": null},\n"
     "   \"inputs\": {\"iters\": 3000, \"refine_weight\": 0.3, \"adapt\": true, \"lpips\": null},\n"
     "   \"stages\": [{\"name\": \"train\", \"seconds\": 12.5, \"cpu_seconds\": 20.25, \"summary\": \"1234 Gaussians <fast>\"},\n"
     "              {\"name\": \"restore\", \"seconds\": 3.25}]},\n"
@@ -310,9 +310,11 @@ static void test_self_contained(const char *html)
     CHECK(strstr(html, "data-value=\"12.5\">12.5</td>") != NULL); /* a stage's time */
     CHECK(strstr(html, "data-value=\"20.25\">20.2</td>") != NULL); /* its CPU time (%.1f: half to even) */
     CHECK(strstr(html, "1234 Gaussians &lt;fast&gt;") != NULL);     /* its summary */
-    /* the run's decisions in words; the refinement, not decided yet, is left out */
-    CHECK(strstr(html, "<p class=\"decisions\"><b>Decided:</b> restoration mode adapted; adaptation ran; the gate is "
-                       "closed; restoration skipped (the gate is &lt;closed&gt;): the restored frames are the renders.</p>") != NULL);
+    /* the run's decisions in words, a sentence each, the why's parentheses the only ones; the
+     * refinement, not decided yet, is left out */
+    CHECK(strstr(html, "<p class=\"decisions\"><b>Decided:</b> Restoration mode adapted. Adaptation ran. The gate is "
+                       "closed. Restoration skipped: the gate is &lt;closed&gt; (-0.12 dB). The restored frames are the "
+                       "renders.</p>") != NULL);
     /* the run's own restorer (another than the folder's) and its options */
     CHECK(strstr(html, "Restorer of this run") != NULL && strstr(html, "n6/restorer.safetensors") != NULL);
     CHECK(strstr(html, "closed: the scene's held-back pairs said restoring hurts") != NULL);

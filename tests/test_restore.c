@@ -305,7 +305,7 @@ static void test_eval_table(const char *tmp)
         gv_clip_free(&clip);
     }
     gv_eval_finish(&t);
-    CHECK(t.n_rows == 2 && t.rows[0].n == 6 && t.rows[1].n == 8 && t.rows[0].clips == 2 && t.rows[1].clips == 1);
+    CHECK(t.n_rows == 2 && t.rows[0].interval == 6 && t.rows[1].interval == 8 && t.rows[0].clips == 2 && t.rows[1].clips == 1);
     CHECK(t.mean.clips == 3 && t.mean.frames == 9);
     CHECK_NEAR(t.rows[0].psnr_base, want[0][0] / 6, 1e-5);
     CHECK_NEAR(t.rows[0].psnr_rest, want[0][1] / 6, 1e-5);
@@ -486,7 +486,7 @@ static void test_runs(const char *tmp)
         gv_eval_init(&d, NULL);
         CHECK(gv_restore_dataset(&s.r, dir, into(&sel, &d)) == 0);
         gv_eval_finish(&d);
-        CHECK(d.mean.clips == 1 && d.n_rows == 1 && d.rows[0].n == 8 && d.mean.psnr_rest == c.rows[1].psnr_rest);
+        CHECK(d.mean.clips == 1 && d.n_rows == 1 && d.rows[0].interval == 8 && d.mean.psnr_rest == c.rows[1].psnr_rest);
         sel.scene = "alpha";
         gv_eval_init(&d, NULL);
         CHECK(gv_restore_dataset(&s.r, dir, into(&sel, &d)) == -1 && strstr(gv_last_error(), "no alpha clips at n = 8"));
@@ -494,7 +494,7 @@ static void test_runs(const char *tmp)
         gv_eval_init(&d, NULL);
         CHECK(gv_restore_dataset(&s.r, dir, into(&sel, &d)) == 0);
         gv_eval_finish(&d);
-        CHECK(d.mean.clips == 1 && d.rows[0].n == 6);
+        CHECK(d.mean.clips == 1 && d.rows[0].interval == 6);
         sel.scene = "beta", sel.interval = 6;
         gv_eval_init(&d, NULL);
         CHECK(gv_restore_files(&s.r, paths + 1, 1, into(&sel, &d)) == -1 && strstr(gv_last_error(), "not of beta at n = 6"));
@@ -504,7 +504,7 @@ static void test_runs(const char *tmp)
     snprintf(path, sizeof path, "%s/beta_n08_002.safetensors", out);
     CHECK(gv_clip_read(p2, &orig) == 0 && gv_clip_read(path, &saved) == 0);
     CHECK(!memcmp(orig.targets, saved.targets, (size_t)5 * W * H * 3) && !memcmp(orig.inputs, saved.inputs, (size_t)W * H * 3));
-    CHECK(memcmp(orig.inputs, saved.inputs, (size_t)5 * W * H * 3) && saved.info.id.n == 8);
+    CHECK(memcmp(orig.inputs, saved.inputs, (size_t)5 * W * H * 3) && saved.info.id.interval == 8);
     for (int f = 0; f < 5; f++) {
         gv_image img;
         snprintf(path, sizeof path, "%s/beta_n08_002/f%d.png", out, f);

@@ -24,7 +24,7 @@ static inline int rf_make_clip(gv_clip *clip, const char *scene, const char *spl
     memset(&info, 0, sizeof info);
     snprintf(info.id.scene, sizeof info.id.scene, "%s", scene);
     snprintf(info.id.split, sizeof info.id.split, "%s", split);
-    info.id.n = n, info.anchor_gap = 1, info.iters = 100, info.width = w, info.height = h;
+    info.id.interval = n, info.anchor_gap = 1, info.iters = 100, info.width = w, info.height = h;
     info.sampling = GV_SAMPLING_UNIFORM, info.seed = seed;
     int fr[5] = {0, 1, n / 2, n - 1, n};
     memcpy(info.frames, fr, sizeof fr);
@@ -80,7 +80,7 @@ static inline int rf_make_dataset(const char *dir, const rf_clip_spec *specs, in
         gv_clip_file_name(entry.file, sizeof entry.file, specs[i].scene, specs[i].n, i);
         snprintf(entry.id.scene, sizeof entry.id.scene, "%s", specs[i].scene);
         snprintf(entry.id.split, sizeof entry.id.split, "%s", specs[i].split);
-        entry.id.n = specs[i].n;
+        entry.id.interval = specs[i].n;
         memcpy(entry.frames, clip.info.frames, sizeof entry.frames);
         snprintf(path, sizeof path, "%s/%s", dir, entry.file);
         rc = gv_clip_write(path, &clip);
@@ -89,16 +89,16 @@ static inline int rf_make_dataset(const char *dir, const rf_clip_spec *specs, in
         snprintf(run.id.scene, sizeof run.id.scene, "%s", specs[i].scene);
         snprintf(run.id.split, sizeof run.id.split, "%s", specs[i].split);
         /* one run per (scene, n) holding its clips: gather them */
-        if (rc == 0 && gv_manifest_find_run(&m, run.id.scene, run.id.n) < 0) {
+        if (rc == 0 && gv_manifest_find_run(&m, run.id.scene, run.id.interval) < 0) {
             gv_manifest_clip group[16];
             int g = 0;
             for (int j = 0; j < count && g < 16; j++) {
-                if (strcmp(specs[j].scene, run.id.scene) || specs[j].n != run.id.n) continue;
+                if (strcmp(specs[j].scene, run.id.scene) || specs[j].n != run.id.interval) continue;
                 memset(&group[g], 0, sizeof group[g]);
                 gv_clip_file_name(group[g].file, sizeof group[g].file, specs[j].scene, specs[j].n, j);
                 snprintf(group[g].id.scene, sizeof group[g].id.scene, "%s", specs[j].scene);
                 snprintf(group[g].id.split, sizeof group[g].id.split, "%s", specs[j].split);
-                group[g].id.n = specs[j].n;
+                group[g].id.interval = specs[j].n;
                 int fr[5] = {0, 1, specs[j].n / 2, specs[j].n - 1, specs[j].n};
                 memcpy(group[g].frames, fr, sizeof fr);
                 g++;

@@ -16,7 +16,7 @@ static void names_set(gv_latent_set *s, int count)
         char name[32];
         snprintf(name, sizeof name, "c%02d", i);
         s->names[i] = strdup(name);
-        s->clips[i].n = i; /* a tag to follow the entry */
+        s->clips[i].interval = i; /* a tag to follow the entry */
     }
     s->count = count;
 }
@@ -32,10 +32,10 @@ static void test_hold_back(void)
         for (int i = 0; i < held.count; i++) {
             char want[32];
             snprintf(want, sizeof want, "c%02d", 1 + 3 * i);
-            CHECK(held.clips[i].n == 1 + 3 * i && !strcmp(held.names[i], want));
+            CHECK(held.clips[i].interval == 1 + 3 * i && !strcmp(held.names[i], want));
         }
         int ok = 1;
-        for (int i = 0; i < train.count; i++) ok &= train.clips[i].n % 3 != 1;
+        for (int i = 0; i < train.count; i++) ok &= train.clips[i].interval % 3 != 1;
         CHECK(ok);
         gv_latent_set_free(&train), gv_latent_set_free(&held), gv_latent_set_free(&all);
     }
@@ -55,7 +55,7 @@ static void test_join(void)
     CHECK(gv_latent_set_join(&a, &b, "harm/", &view) == 0);
     CHECK(view.count == 5 && !strcmp(view.names[0], "c00") && !strcmp(view.names[2], "c02"));
     CHECK(!strcmp(view.names[3], "harm/c00") && !strcmp(view.names[4], "harm/c01"));
-    CHECK(view.clips[1].n == 1 && view.clips[3].n == 0 && view.clips[4].n == 1);
+    CHECK(view.clips[1].interval == 1 && view.clips[3].interval == 0 && view.clips[4].interval == 1);
     gv_latent_set_view_free(&view);
     CHECK(view.count == 0 && a.count == 3 && !strcmp(a.names[2], "c02"));
     gv_latent_set_free(&a), gv_latent_set_free(&b);

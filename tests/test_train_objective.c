@@ -14,7 +14,7 @@
 static void make_latents(gv_clip_latents *l, const gv_model_config *c, int batch, uint64_t seed)
 {
     memset(l, 0, sizeof *l);
-    l->n = 10, l->frames = 5, l->height = 32, l->width = 32, l->batch = batch;
+    l->interval = 10, l->frames = 5, l->height = 32, l->width = 32, l->batch = batch;
     l->z_dim = c->vae.z_dim, l->latent_frames = batch == 1 ? 2 : 1, l->lh = 4, l->lw = 4;
     l->vace_dim = c->dit.vace_in_dim;
     l->plucker_frames = gv_plucker_packed_frames(batch == 1 ? 5 : 1, c->vae.temporal_factor);
@@ -262,7 +262,7 @@ static void test_masked_frames(void)
     CHECK(gv_model_config_preset(&small, "small") == 0 && gv_model_config_preset(&tiny, "tiny") == 0);
     gv_clip_info info;
     memset(&info, 0, sizeof info);
-    info.width = info.height = 32, info.id.n = 6;
+    info.width = info.height = 32, info.id.interval = 6;
     info.no_target[1] = info.no_target[3] = 1;
     gv_vae vae;
     memset(&vae, 0, sizeof vae);

@@ -369,7 +369,7 @@ static void test_validation(const char *base)
         CHECK_NEAR(v.gain_db[k], 0, 1e-4); /* 10 log10(identity / loss) of the identity */
         from_groups += v.loss[k] * v.clips[k] / v.all_clips;
     }
-    CHECK(v.n[0] == 6 && v.clips[0] == 2);
+    CHECK(v.intervals[0] == 6 && v.clips[0] == 2);
     CHECK_NEAR(v.all_identity, id_all, 1e-12);
     CHECK_NEAR(v.all_loss, from_groups, 1e-12);
     CHECK(v.all_identity > 0);

@@ -43,7 +43,7 @@ int cmd_dataset_show(int argc, char **argv)
         const gv_clip_info *i = &clip.info;
         printf("%s: scene %s (%s), n=%d, frames [%d, %d, %d, %d, %d], %dx%d, %d iterations; "
                "corrupted PSNR %.2f / %.2f / %.2f dB -> %s\n", positional[0], i->id.scene, i->id.split,
-               i->id.n, i->frames[0], i->frames[1], i->frames[2], i->frames[3], i->frames[4],
+               i->id.interval, i->frames[0], i->frames[1], i->frames[2], i->frames[3], i->frames[4],
                i->width, i->height, i->iters, frame_psnr(&clip, 1), frame_psnr(&clip, 2),
                frame_psnr(&clip, 3), out);
     }

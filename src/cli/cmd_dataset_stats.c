@@ -18,7 +18,7 @@ static int for_each_run(const char *dir, void (*fn)(const gv_run_record *, void 
     for (int i = 0; i < m.n_runs && rc == 0; i++) {
         char file[GV_SCENE_NAME_MAX + 32], path[4096];
         gv_run_record rec;
-        rc = gv_run_file_name(file, sizeof file, m.runs[i].id.scene, m.runs[i].id.n) ||
+        rc = gv_run_file_name(file, sizeof file, m.runs[i].id.scene, m.runs[i].id.interval) ||
              gv_path_join(path, sizeof path, dir, file) || gv_run_record_read(path, &rec);
         if (rc == 0) {
             fn(&rec, arg);
@@ -34,7 +34,7 @@ static void print_run(const gv_run_record *r, void *unused)
     (void)unused;
     char train[32] = "-";
     if (r->train_frames > 0) snprintf(train, sizeof train, "%.2f / %.4f", r->train_psnr, r->train_ssim);
-    printf("| %s | %s | %d | %d | %.2f / %.4f | %s | %d | %.0f |\n", r->id.scene, r->id.split, r->id.n,
+    printf("| %s | %s | %d | %d | %.2f / %.4f | %s | %d | %.0f |\n", r->id.scene, r->id.split, r->id.interval,
            r->n_train, r->psnr_mean, r->ssim_mean, train, r->n_clips, r->seconds);
 }
 
@@ -43,7 +43,7 @@ static void add_run_json(const gv_run_record *r, void *list)
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "scene", r->id.scene);
     cJSON_AddStringToObject(o, "split", r->id.split);
-    cJSON_AddNumberToObject(o, "n", r->id.n);
+    cJSON_AddNumberToObject(o, "n", r->id.interval);
     cJSON_AddNumberToObject(o, "train_views", r->n_train);
     cJSON *b = cJSON_AddObjectToObject(o, "held_out");
     cJSON_AddNumberToObject(b, "psnr", r->psnr_mean);
@@ -88,7 +88,7 @@ static gv_dataset_stats_row total_row(const gv_dataset_stats *s)
 static cJSON *row_json(const gv_dataset_stats_row *r, int with_n)
 {
     cJSON *o = cJSON_CreateObject();
-    if (with_n) cJSON_AddNumberToObject(o, "n", r->n);
+    if (with_n) cJSON_AddNumberToObject(o, "n", r->interval);
     cJSON_AddNumberToObject(o, "clips_train", r->clips_train);
     cJSON_AddNumberToObject(o, "clips_eval", r->clips_eval);
     cJSON_AddNumberToObject(o, "runs", r->runs);
@@ -139,7 +139,7 @@ static void print_text(const char *dir, const gv_dataset_stats *s)
            "frames", "baseline PSNR", "baseline SSIM", "s/run");
     for (int i = 0; i < s->n_rows; i++) {
         char n[16];
-        snprintf(n, sizeof n, "%d", s->rows[i].n);
+        snprintf(n, sizeof n, "%d", s->rows[i].interval);
         print_row(n, &s->rows[i]);
     }
     gv_dataset_stats_row t = total_row(s);

@@ -74,7 +74,7 @@ int gv_restore_cli_warn_seen(const gv_restorer *r, const char *ckpt, const char 
     if (clip_file) {
         gv_clip_info info;
         if (gv_clip_read_info(clip_file, &info)) return -1;
-        if ((o->scene && strcmp(info.id.scene, o->scene)) || (o->interval && info.id.n != o->interval))
+        if ((o->scene && strcmp(info.id.scene, o->scene)) || (o->interval && info.id.interval != o->interval))
             return 0; /* a clip outside a scene checkpoint's scope: refused next, not restored */
         return gv_warn_if_trained_on(r, ckpt, info.id.scene);
     }
@@ -85,7 +85,7 @@ int gv_restore_cli_warn_seen(const gv_restorer *r, const char *ckpt, const char 
     for (int i = 0; rc == 0 && i < m.n_clips; i++) { /* each scene of the clips restore will take, once */
         const gv_run_id *id = &m.clips[i].id;
         if ((o->split && strcmp(id->split, o->split)) || (o->scene && strcmp(id->scene, o->scene)) ||
-            (o->interval && id->n != o->interval) || gv_scene_list_has(seen, id->scene))
+            (o->interval && id->interval != o->interval) || gv_scene_list_has(seen, id->scene))
             continue;
         size_t len = strlen(seen);
         if (len + strlen(id->scene) + 2 < sizeof seen) snprintf(seen + len, sizeof seen - len, ",%s", id->scene);

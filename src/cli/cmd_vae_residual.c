@@ -97,9 +97,9 @@ static int score_clips(gv_vae *v, const clip_list *l, int *intervals, gv_vae_res
         gv_clip clip;
         if ((rc = gv_clip_read(l->paths[i], &clip))) break;
         int k = 0;
-        while (k < *n_intervals && intervals[k] != clip.info.id.n) k++;
+        while (k < *n_intervals && intervals[k] != clip.info.id.interval) k++;
         if (k == *n_intervals && k == MAX_INTERVALS) rc = gv_fail("%s: more than %d intervals", l->paths[i], MAX_INTERVALS);
-        if (rc == 0 && k == *n_intervals) intervals[(*n_intervals)++] = clip.info.id.n;
+        if (rc == 0 && k == *n_intervals) intervals[(*n_intervals)++] = clip.info.id.interval;
         gv_vae_residual_scores one;
         memset(&one, 0, sizeof one);
         if (rc == 0 && gv_vae_residual_score_clip(v, clip.inputs, clip.targets, GV_CLIP_FRAMES, clip.info.height,

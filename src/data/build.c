@@ -159,7 +159,7 @@ static int run_is_complete(const char *out, const gv_manifest *m, const char *na
     int clips = 0;
     for (int i = 0; i < m->n_clips; i++) {
         const gv_manifest_clip *c = &m->clips[i];
-        if (c->id.n != n || strcmp(c->id.scene, name)) continue;
+        if (c->id.interval != n || strcmp(c->id.scene, name)) continue;
         if (gv_path_join(path, sizeof path, out, c->file) != 0 || !gv_file_exists(path)) return 0;
         clips++;
     }
@@ -264,7 +264,7 @@ static int build_runs(const gv_dataset_build_options *opt, const scene_set *s, g
         else if (n_todo++ % ranks == gv_dist_rank()) {
             todo[n_mine] = r;
             snprintf(mine[n_mine].scene, sizeof mine[n_mine].scene, "%s", s->names[i]);
-            mine[n_mine++].n = n;
+            mine[n_mine++].interval = n;
         }
     }
     int jobs = opt->jobs < 1 ? 1 : opt->jobs < n_mine ? opt->jobs : n_mine;

@@ -14,17 +14,17 @@ static int pack_runs(const gv_manifest *m, const gv_run_id *ids, int n_ids, char
 {
     size_t size = 0;
     for (int k = 0; k < n_ids; k++) {
-        int r = gv_manifest_find_run(m, ids[k].scene, ids[k].n);
-        if (r < 0) return gv_fail("%s n=%d: built but not in this rank's manifest", ids[k].scene, ids[k].n);
+        int r = gv_manifest_find_run(m, ids[k].scene, ids[k].interval);
+        if (r < 0) return gv_fail("%s n=%d: built but not in this rank's manifest", ids[k].scene, ids[k].interval);
         size += sizeof(gv_manifest_run) + (size_t)m->runs[r].n_clips * sizeof(gv_manifest_clip);
     }
     char *p = *out = malloc(size + 1);
     if (!p) return gv_fail("out of memory for the entries of %d runs", n_ids);
     for (int k = 0; k < n_ids; k++) {
-        const gv_manifest_run *run = &m->runs[gv_manifest_find_run(m, ids[k].scene, ids[k].n)];
+        const gv_manifest_run *run = &m->runs[gv_manifest_find_run(m, ids[k].scene, ids[k].interval)];
         memcpy(p, run, sizeof *run), p += sizeof *run;
         for (int i = 0; i < m->n_clips; i++)
-            if (m->clips[i].id.n == run->id.n && !strcmp(m->clips[i].id.scene, run->id.scene))
+            if (m->clips[i].id.interval == run->id.interval && !strcmp(m->clips[i].id.scene, run->id.scene))
                 memcpy(p, &m->clips[i], sizeof m->clips[i]), p += sizeof m->clips[i];
     }
     *bytes = size;

@@ -43,7 +43,7 @@ static int render_held_out(const data_run *run, void *model, frame_cache *cache,
     const gv_artifact_simulator *sim = run->simulator;
     gv_progress bar;
     char label[48];
-    snprintf(label, sizeof label, "render n=%d", run->id.n);
+    snprintf(label, sizeof label, "render n=%d", run->id.interval);
     gv_progress_start(&bar, label, rec->n_held_out);
     for (int i = 0; i < rec->n_held_out; i++) {
         int f = rec->held_out[i];
@@ -79,7 +79,7 @@ static int score_train_views(const data_run *run, void *model, gv_run_record *re
     int n_train = 0, rc = 0;
     double psnr_sum = 0, ssim_sum = 0;
     for (int f = 0; f < run->scene->n_frames && rc == 0; f++) {
-        if (!gv_scene_is_train(f, run->id.n)) continue;
+        if (!gv_scene_is_train(f, run->id.interval)) continue;
         gv_image render = {0}, truth = {0};
         double psnr, ssim;
         n_train++;
@@ -140,7 +140,7 @@ static int write_clips(const data_run *run, void *model, int (*frames)[GV_CLIP_F
         gv_manifest_clip *e = &entries[k];
         char path[4096];
         memset(e, 0, sizeof *e);
-        if (gv_clip_file_name(e->file, sizeof e->file, run->id.scene, run->id.n, k) != 0 ||
+        if (gv_clip_file_name(e->file, sizeof e->file, run->id.scene, run->id.interval, k) != 0 ||
             gv_path_join(path, sizeof path, run->out_dir, e->file) != 0 ||
             write_clip(run, model, frames[k], cache, path) != 0)
             return -1;
@@ -158,10 +158,10 @@ static int plan_run(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int *n_c
     int n_frames = run->scene->n_frames;
     int *held_out = malloc((size_t)n_frames * sizeof *held_out);
     int n_held = 0, rc = -1;
-    uint64_t seed = gv_run_seed(run->params->seed, run->id.scene, run->id.n);
+    uint64_t seed = gv_run_seed(run->params->seed, run->id.scene, run->id.interval);
     if (!held_out) gv_fail("out of memory for %d frames", n_frames);
-    else if (gv_scene_split(n_frames, run->id.n, train, n_train, held_out, &n_held) == 0 &&
-             gv_sample_clips(n_frames, run->id.n, run->params->anchor_gap, run->params->sampling,
+    else if (gv_scene_split(n_frames, run->id.interval, train, n_train, held_out, &n_held) == 0 &&
+             gv_sample_clips(n_frames, run->id.interval, run->params->anchor_gap, run->params->sampling,
                              run->params->clips_per_run, seed ^ 0x9E3779B97F4A7C15ull, frames,
                              n_clips) == 0 &&
              gv_run_record_alloc(rec, n_held) == 0)
@@ -174,14 +174,14 @@ static int plan_run(const data_run *run, int (*frames)[GV_CLIP_FRAMES], int *n_c
         rec->n_clips = *n_clips;
     }
     free(held_out);
-    return rc ? gv_fail_context("%s: n=%d", run->id.scene, run->id.n) : 0;
+    return rc ? gv_fail_context("%s: n=%d", run->id.scene, run->id.interval) : 0;
 }
 
 static int commit_run(const data_run *run, gv_run_record *rec, gv_manifest_clip *entries,
                       gv_manifest *m)
 {
     char name[GV_SCENE_NAME_MAX + 32], path[4096];
-    if (gv_run_file_name(name, sizeof name, run->id.scene, run->id.n) != 0 ||
+    if (gv_run_file_name(name, sizeof name, run->id.scene, run->id.interval) != 0 ||
         gv_path_join(path, sizeof path, run->out_dir, name) != 0 ||
         gv_run_record_write(path, rec) != 0)
         return -1;
@@ -210,8 +210,8 @@ int data_build_run(const data_run *run, gv_manifest *m, gv_run_record *rec)
         goto done;
     const gv_artifact_simulator *sim = run->simulator;
     if (sim->train(sim->ctx, run->scene, train, n_train, run->params->iters, run->params->densify,
-                   gv_run_seed(run->params->seed, run->id.scene, run->id.n), &model) != 0) {
-        gv_fail_context("%s: n=%d: %s", run->id.scene, run->id.n, sim->name);
+                   gv_run_seed(run->params->seed, run->id.scene, run->id.interval), &model) != 0) {
+        gv_fail_context("%s: n=%d: %s", run->id.scene, run->id.interval, sim->name);
         goto done;
     }
     rec->train_seconds = gv_now() - start;

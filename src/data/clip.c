@@ -59,9 +59,9 @@ int gv_clip_check_info(const gv_clip_info *info, const char *what)
         return gv_fail("%s: scene name '%s' is empty or holds a '/'", what, info->id.scene);
     if (strcmp(info->id.split, "train") && strcmp(info->id.split, "eval"))
         return gv_fail("%s: split '%s': expected train or eval", what, info->id.split);
-    if (info->id.n < 2 || info->anchor_gap < 1 || info->iters < 0)
+    if (info->id.interval < 2 || info->anchor_gap < 1 || info->iters < 0)
         return gv_fail("%s: n %d, anchor_gap %d, iters %d: need n >= 2, anchor_gap >= 1, "
-                       "iters >= 0", what, info->id.n, info->anchor_gap, info->iters);
+                       "iters >= 0", what, info->id.interval, info->anchor_gap, info->iters);
     if (info->width < 1 || info->height < 1 || info->width > MAX_SIDE || info->height > MAX_SIDE)
         return gv_fail("%s: size %dx%d: outside 1..%d", what, info->width, info->height, MAX_SIDE);
     if ((unsigned)info->sampling > GV_SAMPLING_RELEASED)
@@ -70,16 +70,16 @@ int gv_clip_check_info(const gv_clip_info *info, const char *what)
     for (int i = 1; i < GV_CLIP_FRAMES; i++)
         if (fr[i] <= fr[i - 1])
             return gv_fail("%s: frame_indices are not strictly increasing", what);
-    if (o < 0 || o >= info->id.n)
-        return gv_fail("%s: offset %d: expected 0..n - 1 (n = %d)", what, o, info->id.n);
-    if (fr[0] < o || !gv_scene_is_train(fr[0] - o, info->id.n) ||
-        (long)fr[4] - fr[0] != (long)info->anchor_gap * info->id.n)
+    if (o < 0 || o >= info->id.interval)
+        return gv_fail("%s: offset %d: expected 0..n - 1 (n = %d)", what, o, info->id.interval);
+    if (fr[0] < o || !gv_scene_is_train(fr[0] - o, info->id.interval) ||
+        (long)fr[4] - fr[0] != (long)info->anchor_gap * info->id.interval)
         return gv_fail("%s: anchors %d and %d are not training views %d * n apart (n = %d, offset %d)",
-                       what, fr[0], fr[4], info->anchor_gap, info->id.n, o);
+                       what, fr[0], fr[4], info->anchor_gap, info->id.interval, o);
     for (int i = 1; i < 4; i++)
-        if (gv_scene_is_train(fr[i] - o, info->id.n))
+        if (gv_scene_is_train(fr[i] - o, info->id.interval))
             return gv_fail("%s: intermediate frame %d is a training view (n = %d, offset %d)", what,
-                           fr[i], info->id.n, o);
+                           fr[i], info->id.interval, o);
     int supervised = 0;
     for (int i = 0; i < GV_CLIP_FRAMES; i++) {
         int anchor = i == 0 || i == GV_CLIP_FRAMES - 1;
@@ -148,7 +148,7 @@ static int add_metadata(gv_st_builder *b, const gv_clip_info *info)
         rc = gv_st_add_metadata(b, "format", GV_CLIP_FORMAT) ||
              add_int(b, "format_version", GV_CLIP_FORMAT_VERSION) ||
              gv_st_add_metadata(b, "scene", info->id.scene) ||
-             gv_st_add_metadata(b, "split", info->id.split) || add_int(b, "n", info->id.n) ||
+             gv_st_add_metadata(b, "split", info->id.split) || add_int(b, "n", info->id.interval) ||
              add_int(b, "anchor_gap", info->anchor_gap) ||
              gv_st_add_metadata(b, "frame_indices", indices) ||
              gv_st_add_metadata(b, "frame_names", names) || add_int(b, "iters", info->iters) ||
@@ -281,7 +281,7 @@ static int read_metadata(const gv_st_file *f, gv_clip_info *info)
     info->seed = strtoull(seed, &end, 10);
     if (errno || end == seed || *end || seed[0] == '-')
         return gv_fail("%s: metadata seed '%s': expected an unsigned integer", f->path, seed);
-    if (meta_int(f, "n", 2, 1000000, &info->id.n) || meta_int(f, "anchor_gap", 1, 1000000, &info->anchor_gap) ||
+    if (meta_int(f, "n", 2, 1000000, &info->id.interval) || meta_int(f, "anchor_gap", 1, 1000000, &info->anchor_gap) ||
         meta_int(f, "iters", 0, 1000000000, &info->iters) ||
         meta_int(f, "width", 1, MAX_SIDE, &info->width) ||
         meta_int(f, "height", 1, MAX_SIDE, &info->height) || meta_frames(f, info, 0) ||

@@ -40,7 +40,7 @@ static void clip_info(const build_ctx *b, const gv_internal_clip *c, gv_clip_inf
     memset(info, 0, sizeof *info);
     snprintf(info->id.scene, sizeof info->id.scene, "%s", b->name);
     snprintf(info->id.split, sizeof info->id.split, "train");
-    info->id.n = 2 * b->o->interval; /* the window's: the do-no-harm clips keep the pairs' metadata */
+    info->id.interval = 2 * b->o->interval; /* the window's: the do-no-harm clips keep the pairs' metadata */
     info->anchor_gap = 1;
     info->iters = b->o->iters;
     info->sampling = GV_SAMPLING_UNIFORM;
@@ -73,7 +73,7 @@ static int clip_present(const build_ctx *b, int i)
         gv_clear_error();
         return 0;
     }
-    return !strcmp(have.id.scene, want.id.scene) && have.id.n == want.id.n && have.offset == want.offset &&
+    return !strcmp(have.id.scene, want.id.scene) && have.id.interval == want.id.interval && have.offset == want.offset &&
            have.subsets == want.subsets &&
            have.iters == want.iters && have.seed == want.seed && have.width == want.width &&
            have.height == want.height && !memcmp(have.frames, want.frames, sizeof want.frames) &&
@@ -178,7 +178,7 @@ static int make_record(const build_ctx *b, gv_run_record *rec)
     if (gv_run_record_alloc(rec, b->count)) return -1;
     snprintf(rec->id.scene, sizeof rec->id.scene, "%s", b->name);
     snprintf(rec->id.split, sizeof rec->id.split, "train");
-    rec->id.n = 2 * b->o->interval;
+    rec->id.interval = 2 * b->o->interval;
     rec->iters = b->o->iters;
     rec->n_train = gv_internal_views(b->scene->n_frames, b->o->interval);
     rec->n_clips = b->count;
@@ -208,17 +208,17 @@ static int commit(const build_ctx *b, gv_run_record *rec, double seconds)
         return -1;
     gv_manifest m;
     gv_manifest_init(&m, &b->params);
-    gv_manifest_run run = {.id.n = 2 * b->o->interval, .n_clips = b->count, .seconds = seconds};
+    gv_manifest_run run = {.id.interval = 2 * b->o->interval, .n_clips = b->count, .seconds = seconds};
     snprintf(run.id.scene, sizeof run.id.scene, "%s", b->name);
     snprintf(run.id.split, sizeof run.id.split, "train");
     gv_manifest_clip *entries = calloc((size_t)b->count, sizeof *entries);
     int rc = entries ? 0 : gv_fail("out of memory for %d clips", b->count);
     for (int i = 0; rc == 0 && i < b->count; i++) {
         gv_manifest_clip *e = &entries[i];
-        rc = gv_clip_file_name(e->file, sizeof e->file, b->name, run.id.n, i);
+        rc = gv_clip_file_name(e->file, sizeof e->file, b->name, run.id.interval, i);
         snprintf(e->id.scene, sizeof e->id.scene, "%s", b->name);
         snprintf(e->id.split, sizeof e->id.split, "train");
-        e->id.n = run.id.n;
+        e->id.interval = run.id.interval;
         memcpy(e->frames, b->clips[i].frames, sizeof e->frames);
     }
     if (rc == 0) rc = gv_manifest_add_run(&m, &run, entries, b->count);
@@ -237,7 +237,7 @@ static int already_built(const build_ctx *b)
     if (gv_manifest_read(b->o->out_dir, &m, &found)) return -1;
     if (!found) return 0;
     const gv_dataset_params *p = &m.params, *q = &b->params;
-    int same = m.n_runs == 1 && !strcmp(m.runs[0].id.scene, b->name) && m.runs[0].id.n == 2 * b->o->interval &&
+    int same = m.n_runs == 1 && !strcmp(m.runs[0].id.scene, b->name) && m.runs[0].id.interval == 2 * b->o->interval &&
                p->iters == q->iters && p->densify == q->densify && p->seed == q->seed && p->clips_per_run == q->clips_per_run &&
                p->downscale == q->downscale && p->anchor_gap == q->anchor_gap && p->sampling == q->sampling &&
                p->subsets == q->subsets;

@@ -52,7 +52,7 @@ void gv_dataset_params_flags(const gv_dataset_params *p, char *out, size_t size)
 int gv_manifest_find_run(const gv_manifest *m, const char *scene, int n)
 {
     for (int i = 0; i < m->n_runs; i++)
-        if (m->runs[i].id.n == n && !strcmp(m->runs[i].id.scene, scene)) return i;
+        if (m->runs[i].id.interval == n && !strcmp(m->runs[i].id.scene, scene)) return i;
     return -1;
 }
 
@@ -60,7 +60,7 @@ static int compare_runs(const void *a, const void *b)
 {
     const gv_manifest_run *x = a, *y = b;
     int c = strcmp(x->id.scene, y->id.scene);
-    return c ? c : (x->id.n > y->id.n) - (x->id.n < y->id.n);
+    return c ? c : (x->id.interval > y->id.interval) - (x->id.interval < y->id.interval);
 }
 
 static int compare_clips(const void *a, const void *b)
@@ -68,7 +68,7 @@ static int compare_clips(const void *a, const void *b)
     const gv_manifest_clip *x = a, *y = b;
     int c = strcmp(x->id.scene, y->id.scene);
     if (c) return c;
-    if (x->id.n != y->id.n) return x->id.n < y->id.n ? -1 : 1;
+    if (x->id.interval != y->id.interval) return x->id.interval < y->id.interval ? -1 : 1;
     return strcmp(x->file, y->file);
 }
 
@@ -90,11 +90,11 @@ int gv_manifest_add_run(gv_manifest *m, const gv_manifest_run *run,
 {
     int kept = 0; /* drop the previous entries of this (scene, n) */
     for (int i = 0; i < m->n_runs; i++)
-        if (m->runs[i].id.n != run->id.n || strcmp(m->runs[i].id.scene, run->id.scene)) m->runs[kept++] = m->runs[i];
+        if (m->runs[i].id.interval != run->id.interval || strcmp(m->runs[i].id.scene, run->id.scene)) m->runs[kept++] = m->runs[i];
     m->n_runs = kept;
     kept = 0;
     for (int i = 0; i < m->n_clips; i++)
-        if (m->clips[i].id.n != run->id.n || strcmp(m->clips[i].id.scene, run->id.scene)) m->clips[kept++] = m->clips[i];
+        if (m->clips[i].id.interval != run->id.interval || strcmp(m->clips[i].id.scene, run->id.scene)) m->clips[kept++] = m->clips[i];
     m->n_clips = kept;
     if (reserve((void **)&m->runs, &m->cap_runs, m->n_runs + 1, sizeof *m->runs) ||
         reserve((void **)&m->clips, &m->cap_clips, m->n_clips + n_clips, sizeof *m->clips))
@@ -133,10 +133,10 @@ static cJSON *manifest_json(const gv_manifest *m)
     for (int i = 0; i < m->n_runs; i++) {
         const gv_manifest_run *r = &m->runs[i];
         char record[GV_SCENE_NAME_MAX + 32] = "";
-        gv_run_file_name(record, sizeof record, r->id.scene, r->id.n);
+        gv_run_file_name(record, sizeof record, r->id.scene, r->id.interval);
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "scene", r->id.scene);
-        cJSON_AddNumberToObject(o, "n", r->id.n);
+        cJSON_AddNumberToObject(o, "n", r->id.interval);
         cJSON_AddStringToObject(o, "split", r->id.split);
         cJSON_AddNumberToObject(o, "clips", r->n_clips);
         cJSON_AddNumberToObject(o, "seconds", round(r->seconds * 10) / 10);
@@ -149,7 +149,7 @@ static cJSON *manifest_json(const gv_manifest *m)
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "file", c->file);
         cJSON_AddStringToObject(o, "scene", c->id.scene);
-        cJSON_AddNumberToObject(o, "n", c->id.n);
+        cJSON_AddNumberToObject(o, "n", c->id.interval);
         cJSON_AddStringToObject(o, "split", c->id.split);
         cJSON_AddItemToObject(o, "frame_indices", cJSON_CreateIntArray(c->frames, GV_CLIP_FRAMES));
         cJSON_AddItemToArray(clips, o);
@@ -245,7 +245,7 @@ static int read_run(const cJSON *o, const char *path, int i, gv_manifest_run *r)
         get_int(o, "clips", 0, 1e6, path, where, &clips))
         return -1;
     seconds = cJSON_IsNumber(s) ? s->valuedouble : 0;
-    r->id.n = (int)n, r->n_clips = (int)clips, r->seconds = isfinite(seconds) ? seconds : 0;
+    r->id.interval = (int)n, r->n_clips = (int)clips, r->seconds = isfinite(seconds) ? seconds : 0;
     return 0;
 }
 
@@ -261,7 +261,7 @@ static int read_clip(const cJSON *o, const char *path, int i, gv_manifest_clip *
         get_string(o, "split", c->id.split, sizeof c->id.split, path, where) ||
         check_split(c->id.split, path, where) || get_int(o, "n", 2, 1e6, path, where, &n))
         return -1;
-    c->id.n = (int)n;
+    c->id.interval = (int)n;
     const cJSON *list = cJSON_GetObjectItemCaseSensitive(o, "frame_indices");
     if (!cJSON_IsArray(list) || cJSON_GetArraySize(list) != GV_CLIP_FRAMES)
         return gv_fail("%s: %s: \"frame_indices\" must be a list of %d integers", path, where, GV_CLIP_FRAMES);
@@ -290,18 +290,18 @@ static int read_lists(const cJSON *root, const char *path, gv_manifest *m)
     const cJSON *item;
     cJSON_ArrayForEach(item, runs) {
         if (read_run(item, path, m->n_runs, &m->runs[m->n_runs]) != 0) return -1;
-        if (gv_manifest_find_run(m, m->runs[m->n_runs].id.scene, m->runs[m->n_runs].id.n) >= 0)
+        if (gv_manifest_find_run(m, m->runs[m->n_runs].id.scene, m->runs[m->n_runs].id.interval) >= 0)
             return gv_fail("%s: runs[%d]: run %s n=%d is listed twice", path, m->n_runs,
-                           m->runs[m->n_runs].id.scene, m->runs[m->n_runs].id.n);
+                           m->runs[m->n_runs].id.scene, m->runs[m->n_runs].id.interval);
         m->n_runs++;
     }
     cJSON_ArrayForEach(item, clips) {
         gv_manifest_clip *c = &m->clips[m->n_clips];
         if (read_clip(item, path, m->n_clips, c) != 0) return -1;
-        int r = gv_manifest_find_run(m, c->id.scene, c->id.n);
+        int r = gv_manifest_find_run(m, c->id.scene, c->id.interval);
         if (r < 0 || strcmp(m->runs[r].id.split, c->id.split))
             return gv_fail("%s: clips[%d]: %s n=%d (%s) is not a run of the manifest", path,
-                           m->n_clips, c->id.scene, c->id.n, c->id.split);
+                           m->n_clips, c->id.scene, c->id.interval, c->id.split);
         m->n_clips++;
     }
     return 0;

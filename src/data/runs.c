@@ -55,7 +55,7 @@ int gv_run_record_write(const char *path, const gv_run_record *r)
     cJSON *root = cJSON_CreateObject();
     cJSON_AddStringToObject(root, "scene", r->id.scene);
     cJSON_AddStringToObject(root, "split", r->id.split);
-    cJSON_AddNumberToObject(root, "n", r->id.n);
+    cJSON_AddNumberToObject(root, "n", r->id.interval);
     cJSON_AddNumberToObject(root, "iters", r->iters);
     cJSON_AddNumberToObject(root, "train_views", r->n_train);
     cJSON_AddNumberToObject(root, "clips", r->n_clips);
@@ -141,7 +141,7 @@ int gv_run_record_read(const char *path, gv_run_record *r)
     else
         rc = read_frames(cJSON_GetObjectItemCaseSensitive(root, "frames"), path, r);
     if (rc == 0) {
-        r->id.n = (int)v[0], r->iters = (int)v[1], r->n_train = (int)v[2], r->n_clips = (int)v[3];
+        r->id.interval = (int)v[0], r->iters = (int)v[1], r->n_train = (int)v[2], r->n_clips = (int)v[3];
         r->seconds = v[4], r->train_seconds = v[5];
         double render;
         r->render_seconds = gv_json_number(root, "render_seconds", 0, 1e12, 0, &render) ? 0 : render;

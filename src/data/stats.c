@@ -8,12 +8,12 @@
 static gv_dataset_stats_row *row_of(gv_dataset_stats *s, int n)
 {
     for (int i = 0; i < s->n_rows; i++)
-        if (s->rows[i].n == n) return &s->rows[i];
+        if (s->rows[i].interval == n) return &s->rows[i];
     if (s->n_rows == GV_MAX_INTERVALS) return NULL;
     int at = s->n_rows++;
-    while (at > 0 && s->rows[at - 1].n > n) { s->rows[at] = s->rows[at - 1]; at--; }
+    while (at > 0 && s->rows[at - 1].interval > n) { s->rows[at] = s->rows[at - 1]; at--; }
     memset(&s->rows[at], 0, sizeof s->rows[at]);
-    s->rows[at].n = n;
+    s->rows[at].interval = n;
     return &s->rows[at];
 }
 
@@ -22,13 +22,13 @@ static int add_record(const char *dir, const gv_manifest_run *run, gv_dataset_st
 {
     char file[GV_SCENE_NAME_MAX + 32], path[4096];
     gv_run_record rec;
-    if (gv_run_file_name(file, sizeof file, run->id.scene, run->id.n) != 0 ||
+    if (gv_run_file_name(file, sizeof file, run->id.scene, run->id.interval) != 0 ||
         gv_path_join(path, sizeof path, dir, file) != 0 || gv_run_record_read(path, &rec) != 0)
         return -1;
     int rc = 0;
-    if (strcmp(rec.id.scene, run->id.scene) || rec.id.n != run->id.n)
-        rc = gv_fail("%s: holds %s n=%d, the manifest expects %s n=%d", path, rec.id.scene, rec.id.n,
-                     run->id.scene, run->id.n);
+    if (strcmp(rec.id.scene, run->id.scene) || rec.id.interval != run->id.interval)
+        rc = gv_fail("%s: holds %s n=%d, the manifest expects %s n=%d", path, rec.id.scene, rec.id.interval,
+                     run->id.scene, run->id.interval);
     row->runs++;
     row->frames += rec.n_held_out;
     row->psnr += rec.psnr_mean * rec.n_held_out;
@@ -48,7 +48,7 @@ int gv_dataset_stats_read(const char *dir, gv_dataset_stats *out)
     out->n_clips = m.n_clips;
     int rc = 0;
     for (int i = 0; i < m.n_runs && rc == 0; i++) {
-        gv_dataset_stats_row *row = row_of(out, m.runs[i].id.n);
+        gv_dataset_stats_row *row = row_of(out, m.runs[i].id.interval);
         if (!row) rc = gv_fail("%s: more than %d intervals", dir, GV_MAX_INTERVALS);
         else rc = add_record(dir, &m.runs[i], row);
         int seen = 0; /* count each scene once */
@@ -56,7 +56,7 @@ int gv_dataset_stats_read(const char *dir, gv_dataset_stats *out)
         out->n_scenes += !seen;
     }
     for (int i = 0; i < m.n_clips && rc == 0; i++) {
-        gv_dataset_stats_row *row = row_of(out, m.clips[i].id.n);
+        gv_dataset_stats_row *row = row_of(out, m.clips[i].id.interval);
         if (!row) rc = gv_fail("%s: more than %d intervals", dir, GV_MAX_INTERVALS);
         else if (!strcmp(m.clips[i].id.split, "eval")) row->clips_eval++;
         else row->clips_train++;

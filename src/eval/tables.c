@@ -22,12 +22,12 @@ void gv_eval_init(gv_eval_table *t, const gv_lpips *lpips)
 static gv_eval_row *row_of(gv_eval_table *t, int n)
 {
     int i = 0;
-    while (i < t->n_rows && t->rows[i].n < n) i++;
-    if (i < t->n_rows && t->rows[i].n == n) return &t->rows[i];
+    while (i < t->n_rows && t->rows[i].interval < n) i++;
+    if (i < t->n_rows && t->rows[i].interval == n) return &t->rows[i];
     if (t->n_rows == GV_MAX_INTERVALS) return NULL;
     memmove(&t->rows[i + 1], &t->rows[i], (size_t)(t->n_rows - i) * sizeof t->rows[0]);
     memset(&t->rows[i], 0, sizeof t->rows[i]);
-    t->rows[i].n = n;
+    t->rows[i].interval = n;
     t->n_rows++;
     return &t->rows[i];
 }
@@ -71,11 +71,11 @@ int gv_eval_add(gv_eval_table *t, const gv_clip *clip, const uint8_t *restored)
             double psnr, ssim, lpips = 0;
             if (measure(t, &frames[k], &truth, &psnr, &ssim) ||
                 (t->lpips && gv_lpips_distance(t->lpips, &frames[k], &truth, &lpips)))
-                return gv_fail_context("eval: clip %s n%d frame %d", info->id.scene, info->id.n, info->frames[f]);
+                return gv_fail_context("eval: clip %s n%d frame %d", info->id.scene, info->id.interval, info->frames[f]);
             sums[3 * k] += psnr, sums[3 * k + 1] += ssim, sums[3 * k + 2] += lpips;
         }
     }
-    gv_eval_row *r = row_of(t, info->id.n);
+    gv_eval_row *r = row_of(t, info->id.interval);
     if (!r) return gv_fail("eval: more than %d intervals", GV_MAX_INTERVALS);
     gv_eval_row *rows[2] = {r, &t->mean};
     for (int k = 0; k < 2; k++) {
@@ -128,7 +128,7 @@ void gv_eval_print_markdown(const gv_eval_table *t, FILE *out)
     fprintf(out, "|---|---|---|---|---|---|---|%s\n", l ? "---|---|" : "");
     for (int i = 0; i < t->n_rows; i++) {
         char label[16];
-        snprintf(label, sizeof label, "%d", t->rows[i].n);
+        snprintf(label, sizeof label, "%d", t->rows[i].interval);
         print_row(out, label, &t->rows[i], l);
     }
     print_row(out, "**mean**", &t->mean, l);
@@ -167,7 +167,7 @@ int gv_eval_write_json(const gv_eval_table *t, const char *path, const char *con
     for (int i = 0; ok && i < n_info; i++) ok = cJSON_AddStringToObject(root, info_keys[i], info_values[i]) != NULL;
     for (int i = 0; ok && i < t->n_rows; i++) {
         cJSON *o = cJSON_CreateObject();
-        ok = o && cJSON_AddNumberToObject(o, "n", t->rows[i].n) && cJSON_AddNumberToObject(o, "clips", t->rows[i].clips) &&
+        ok = o && cJSON_AddNumberToObject(o, "n", t->rows[i].interval) && cJSON_AddNumberToObject(o, "clips", t->rows[i].clips) &&
              add_sides(o, &t->rows[i], t->lpips != NULL) == 0;
         if (ok) ok = cJSON_AddItemToArray(per_n, o);
         else cJSON_Delete(o);

@@ -229,11 +229,15 @@ void gv_release_plan_free(gv_release_plan *p)
     memset(p, 0, sizeof *p);
 }
 
+static const char *module_weight_name(const void *modules, int i)
+{
+    return ((const gv_release_module *)modules)[i].weight;
+}
+
 const gv_release_module *gv_release_plan_module(const gv_release_plan *p, const char *weight)
 {
-    gv_release_module key;
-    snprintf(key.weight, sizeof key.weight, "%s", weight);
-    return bsearch(&key, p->modules, (size_t)p->n_modules, sizeof key, by_weight);
+    /* the modules are sorted by weight name (gv_release_plan_build) */
+    return gv_names_find(p->modules, sizeof *p->modules, NULL, p->n_modules, module_weight_name, weight);
 }
 
 const gv_st_tensor *gv_release_plan_decoder(const gv_release_plan *p, const gv_st_file *lora, const char *vae_name)

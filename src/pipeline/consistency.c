@@ -114,7 +114,7 @@ void pipeline_consistency_line(const pipeline_run *r, const double psnr[3], char
 {
     char means[160];
     pipeline_consistency_means(psnr, pipeline_consistency_sets(r), means, sizeof means);
-    snprintf(out, size, "n=%d consistency (masked PSNR of each frame warped into its neighbours, %d pairs): %s", r->n,
+    snprintf(out, size, "n=%d consistency (masked PSNR of each frame warped into its neighbours, %d pairs): %s", r->interval,
              2 * (r->n_frames - 1), means);
 }
 
@@ -126,18 +126,18 @@ static int measure_run(pipeline_run *r, const char *dir, const cJSON *run, cJSON
     int listed = cJSON_IsArray(frames) ? cJSON_GetArraySize(frames) : -1;
     if (listed != r->n_frames)
         return gv_fail("%s/metrics.json: run n=%d lists %d frames but the scene's plan has %d (was the scene changed?)",
-                       dir, r->n, listed, r->n_frames);
+                       dir, r->interval, listed, r->n_frames);
     for (int i = 0; i < listed; i++) {
         double index;
         if (gv_json_number(cJSON_GetArrayItem(frames, i), "frame", 0, 1e9, 1, &index) || (int)index != r->frames[i].index)
             return gv_fail("%s/metrics.json: run n=%d frame %d is not the plan's frame %d (was the scene changed?)", dir,
-                           r->n, i, r->frames[i].index);
+                           r->interval, i, r->frames[i].index);
     }
     cJSON *j;
     double psnr[3];
-    if (pipeline_consistency(r, 1, &j, psnr)) return gv_fail_context("%s n=%d", dir, r->n);
+    if (pipeline_consistency(r, 1, &j, psnr)) return gv_fail_context("%s n=%d", dir, r->interval);
     cJSON *rj = cJSON_CreateObject();
-    cJSON_AddNumberToObject(rj, "interval", r->n);
+    cJSON_AddNumberToObject(rj, "interval", r->interval);
     cJSON_AddNumberToObject(rj, "frames", r->n_frames);
     for (int k = 0; k < 3; k++) cJSON_AddItemToObject(rj, NAMES[k], cJSON_DetachItemFromObject(j, NAMES[k]));
     cJSON_Delete(j);

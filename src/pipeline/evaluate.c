@@ -137,7 +137,7 @@ int pipeline_evaluate(pipeline_run *r)
     cJSON *frames = cJSON_GetObjectItem(r->run, "frames");
     gv_progress bar;
     char label[48];
-    snprintf(label, sizeof label, "evaluate n=%d", r->n);
+    snprintf(label, sizeof label, "evaluate n=%d", r->interval);
     gv_progress_start(&bar, label, r->n_frames + r->n_held_out);
     int rc = 0, done = 0;
     for (int i = 0; i < r->n_frames && rc == 0; i++) {

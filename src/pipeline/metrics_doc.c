@@ -173,7 +173,7 @@ static cJSON *frame_json(const pipeline_run *r, const pipeline_frame *f)
 static cJSON *new_run(const pipeline_run *r, cJSON *inputs)
 {
     cJSON *run = cJSON_CreateObject();
-    cJSON_AddNumberToObject(run, "interval", r->n);
+    cJSON_AddNumberToObject(run, "interval", r->interval);
     cJSON_AddItemToObject(run, "train_frames", cJSON_CreateIntArray(r->train, r->n_train));
     cJSON_AddStringToObject(run, "path", r->smooth_path ? "smooth" : "held-out");
     cJSON_AddItemToObject(run, "inputs", inputs);
@@ -223,6 +223,13 @@ void pipeline_decision(pipeline_run *r, const char *what, int ran, const char *w
     cJSON_AddItemToObject(d, what, decision_json(ran, why));
 }
 
+int pipeline_decision_ran(const pipeline_run *r, const char *what)
+{
+    const cJSON *d = cJSON_GetObjectItem(r->run, "decisions");
+    const cJSON *ran = cJSON_GetObjectItem(cJSON_GetObjectItem(d, what), "ran");
+    return cJSON_IsBool(ran) ? cJSON_IsTrue(ran) : -1;
+}
+
 void pipeline_decision_gate(pipeline_run *r, const char *gate)
 {
     cJSON *d = cJSON_GetObjectItem(r->run, "decisions");
@@ -270,7 +277,7 @@ int pipeline_doc_run(pipeline_run *r)
     cJSON *runs = cJSON_GetObjectItem(r->doc, "runs"), *inputs = inputs_json(r->opt), *found = NULL;
     for (cJSON *run = runs->child; run && !found; run = run->next) {
         const cJSON *n = cJSON_GetObjectItem(run, "interval");
-        if (cJSON_IsNumber(n) && n->valueint == r->n) found = run;
+        if (cJSON_IsNumber(n) && n->valueint == r->interval) found = run;
     }
     if (found) { /* the stages' records say what they were made from (pipeline_stage_done) */
         cJSON_ReplaceItemInObject(found, "inputs", inputs);
@@ -290,7 +297,7 @@ int pipeline_doc_run(pipeline_run *r)
     /* runs stay sorted by interval */
     int at = 0;
     for (cJSON *run = runs->child; run; run = run->next, at++)
-        if (cJSON_GetObjectItem(run, "interval")->valueint > r->n) break;
+        if (cJSON_GetObjectItem(run, "interval")->valueint > r->interval) break;
     cJSON_InsertItemInArray(runs, at, r->run);
     return 0;
 }

@@ -28,7 +28,7 @@ typedef struct {
     const gv_reconstruct_options *opt;
     const gv_scene *scene;
     char scene_name[GV_SCENE_NAME_MAX];
-    int n;                       /* the interval */
+    int interval;                /* n */
     int smooth_path;             /* 1: every view trains (n = 1), the frames are a path */
     char dir[4096];              /* DIR/nN */
     int n_train, *train;         /* training frames */
@@ -65,13 +65,13 @@ int pipeline_refine(pipeline_run *r);
 int pipeline_render_model(pipeline_run *r, const gv_gaussians *g, const char *what);
 int pipeline_render(pipeline_run *r);
 /* restore_stages.c */
-/* Decides r->adapt and r->no_adapt from the options, the checkpoint and the interval. */
-int pipeline_plan_adaptation(pipeline_run *r);
+/* Decides r->adapt and r->no_adapt from the options, the checkpoint (scene_ckpt: a scene
+ * checkpoint, as its record read before the stages says) and the interval. */
+void pipeline_plan_adaptation(pipeline_run *r, int scene_ckpt);
 int pipeline_adapt(pipeline_run *r);
-/* Whether restore runs the network: 1, or 0 with why in words (the renders are kept: the
- * adaptation could not run, or the scene checkpoint's gate is closed); -1 on error. With
- * record set, the run's "restorer" and gate decision are written from that one open. */
-int pipeline_restoration_decision(pipeline_run *r, int record, char *why, size_t size);
+/* Restores every evaluated frame, or, when the restorer would not help (no adaptation
+ * possible, a closed gate), keeps the renders; the run's "decisions" say which. Opens the
+ * restorer once. */
 int pipeline_restore(pipeline_run *r);
 /* Copies every evaluated frame's DIR/nN/frames/<from>/ PNG to frames/<to>/. */
 int pipeline_copy_frames(pipeline_run *r, const char *from, const char *to);
@@ -129,6 +129,9 @@ cJSON *pipeline_restorer_json(const char *ckpt, const gv_restorer *r, int adapt)
 /* The run's "decisions" (what: "adaptation", "restoration" or "refinement"): whether it ran
  * and, when it did not, why (NULL: it ran). */
 void pipeline_decision(pipeline_run *r, const char *what, int ran, const char *why);
+/* Whether the run's "decisions" say the step (what) ran: 1 or 0; -1 when not recorded (not
+ * decided yet, or a metrics.json from before decisions were recorded). */
+int pipeline_decision_ran(const pipeline_run *r, const char *what);
 /* The run's "decisions"."gate": "open", "closed" or NULL (no scene checkpoint). */
 void pipeline_decision_gate(pipeline_run *r, const char *gate);
 /* doc-building helpers */

@@ -23,12 +23,12 @@ void pipeline_plan_free(pipeline_run *r)
 static int plan_held_out(pipeline_run *r)
 {
     const gv_scene *s = r->scene;
-    int gaps = r->n_train - 1, per_gap = (r->n - 1 + SLOTS - 1) / SLOTS;
-    r->frames = calloc((size_t)gaps * (r->n - 1) + 1, sizeof *r->frames);
+    int gaps = r->n_train - 1, per_gap = (r->interval - 1 + SLOTS - 1) / SLOTS;
+    r->frames = calloc((size_t)gaps * (r->interval - 1) + 1, sizeof *r->frames);
     r->clips = calloc((size_t)gaps * per_gap + 1, sizeof *r->clips);
-    if (!r->frames || !r->clips) return gv_fail("out of memory for the plan of n = %d", r->n);
+    if (!r->frames || !r->clips) return gv_fail("out of memory for the plan of n = %d", r->interval);
     for (int k = 0; k < gaps; k++) {
-        int first = r->n_frames, start = r->train[k] + 1, m = r->n - 1;
+        int first = r->n_frames, start = r->train[k] + 1, m = r->interval - 1;
         for (int i = 0; i < m; i++) {
             pipeline_frame *f = &r->frames[r->n_frames++];
             f->index = f->truth = start + i;
@@ -122,7 +122,7 @@ static int name_frames(pipeline_run *r)
 int pipeline_plan(pipeline_run *r, const gv_scene *scene, int n)
 {
     int total = scene->n_frames;
-    r->scene = scene, r->n = n, r->smooth_path = n == 1;
+    r->scene = scene, r->interval = n, r->smooth_path = n == 1;
     r->n_frames = r->n_clips = 0;
     if (gv_interval_check(n, total, GV_INTERVAL_RECONSTRUCT)) return gv_fail_context("%s: --interval", scene->dir);
     r->train = malloc((size_t)total * sizeof *r->train);
@@ -156,5 +156,5 @@ int pipeline_frame_path(const pipeline_run *r, const char *what, int frame, char
 void pipeline_frame_relpath(const pipeline_run *r, const char *what, int frame, char *out, size_t size)
 {
     const char *name = frame_name(r, frame);
-    snprintf(out, size, "n%d/frames/%s/%s.png", r->n, what, name ? name : "?");
+    snprintf(out, size, "n%d/frames/%s/%s.png", r->interval, what, name ? name : "?");
 }

@@ -20,20 +20,17 @@
 
 #define ADAPTED "restorer.safetensors" /* the scene checkpoint of --adapt, in DIR/nN */
 
-int pipeline_plan_adaptation(pipeline_run *r)
+void pipeline_plan_adaptation(pipeline_run *r, int scene_ckpt)
 {
     r->adapt = 0, r->no_adapt[0] = 0;
-    if (r->opt->restore_with != GV_RESTORE_ADAPTED) return 0;
-    int scene_ckpt = gv_scene_checkpoint_is(r->opt->ckpt);
-    if (scene_ckpt < 0) return -1;
-    if (scene_ckpt == 1) return 0; /* adapted already: its own gate decides */
+    if (r->opt->restore_with != GV_RESTORE_ADAPTED) return;
+    if (scene_ckpt) return; /* adapted already: its own gate decides */
     if (r->smooth_path)
         snprintf(r->no_adapt, sizeof r->no_adapt, "every view trains (n = 1), so no view is left to pair with");
-    else if (gv_internal_check(r->scene->n_frames, r->n))
+    else if (gv_internal_check(r->scene->n_frames, r->interval))
         snprintf(r->no_adapt, sizeof r->no_adapt, "%s", gv_last_error());
     else
         r->adapt = 1;
-    return 0;
 }
 
 /* The checkpoint restore uses: the adapted one when the adapt stage runs, else --ckpt. */
@@ -51,7 +48,7 @@ int pipeline_adapt(pipeline_run *r)
     gv_adapt_options a = r->opt->adapt_options;
     if (restorer_path(r)) return -1;
     a.scene_dir = r->opt->scene_dir;
-    a.interval = r->n;
+    a.interval = r->interval;
     a.base = r->opt->ckpt;
     a.out = r->restorer;
     a.work_dir = NULL;
@@ -115,7 +112,7 @@ static int write_clip(pipeline_run *r, const gv_gaussians *sparse, int c, const 
     memset(&info, 0, sizeof info);
     snprintf(info.id.scene, sizeof info.id.scene, "%s", r->scene_name);
     snprintf(info.id.split, sizeof info.id.split, "eval");
-    info.id.n = r->smooth_path ? 4 : r->n; /* a path's frames are numbered 4k + j */
+    info.id.interval = r->smooth_path ? 4 : r->interval; /* a path's frames are numbered 4k + j */
     info.anchor_gap = 1;
     info.iters = r->opt->iters;
     info.sampling = GV_SAMPLING_UNIFORM;
@@ -157,28 +154,25 @@ static int write_restored(void *ctx, const gv_clip *clip, const uint8_t *restore
     return 0;
 }
 
-int pipeline_restoration_decision(pipeline_run *r, int record, char *why, size_t size)
+/* Whether restore runs the network, from one open of the restorer (its weights read only when
+ * they will restore: no gate, or an open one): 1 with net loaded, or 0 with why in words (the
+ * renders are kept: the adaptation could not run, or the scene checkpoint's gate is closed);
+ * -1 on error. Records the run's gate and "restorer"; the caller frees net. */
+static int open_restorer(pipeline_run *r, gv_restorer *net, char *why, size_t size)
 {
     why[0] = 0;
-    if (r->opt->restore_with == GV_RESTORE_NONE) return snprintf(why, size, "--no-restore"), 0;
     if (r->no_adapt[0]) {
-        if (record) pipeline_decision_gate(r, NULL);
+        pipeline_decision_gate(r, NULL);
         return snprintf(why, size, "adaptation cannot run here"), 0;
     }
-    if (restorer_path(r)) return -1;
-    gv_restorer rec; /* the record alone: one open, no weights read */
-    memset(&rec, 0, sizeof rec);
-    if (gv_restorer_open(r->restorer, GV_RESTORER_RECORD, &rec)) return -1;
-    int closed = rec.scene && !rec.adaptation.gate_open;
+    if (restorer_path(r) || gv_restorer_open(r->restorer, GV_RESTORER_NETWORK_IF_GATE_OPEN, net)) return -1;
+    int closed = net->scene && !net->adaptation.gate_open;
     if (closed)
         snprintf(why, size, "the gate is closed (held-back pairs %+.2f dB when restored)",
-                 gv_scene_gate_change(&rec.adaptation));
-    if (record) {
-        pipeline_decision_gate(r, rec.scene ? (closed ? "closed" : "open") : NULL);
-        cJSON_DeleteItemFromObject(r->run, "restorer");
-        cJSON_AddItemToObject(r->run, "restorer", pipeline_restorer_json(r->restorer, &rec, 0));
-    }
-    gv_restorer_free(&rec);
+                 gv_scene_gate_change(&net->adaptation));
+    pipeline_decision_gate(r, net->scene ? (closed ? "closed" : "open") : NULL);
+    cJSON_DeleteItemFromObject(r->run, "restorer");
+    cJSON_AddItemToObject(r->run, "restorer", pipeline_restorer_json(r->restorer, net, 0));
     return !closed;
 }
 
@@ -224,10 +218,13 @@ int pipeline_copy_frames(pipeline_run *r, const char *from, const char *to)
 int pipeline_restore(pipeline_run *r)
 {
     char why[700];
-    int decision = pipeline_restoration_decision(r, 1, why, sizeof why);
+    gv_restorer net;
+    memset(&net, 0, sizeof net);
+    int decision = open_restorer(r, &net, why, sizeof why);
     if (decision < 0) return -1;
     pipeline_decision(r, "restoration", decision, decision ? NULL : why);
     if (decision == 0) { /* not run for nothing: the renders pass through */
+        gv_restorer_free(&net);
         snprintf(r->summary, sizeof r->summary, "skipped: %s%s%s%s; the restored frames are the renders", why,
                  r->no_adapt[0] ? " (" : "", r->no_adapt, r->no_adapt[0] ? ")" : "");
         return pipeline_copy_frames(r, "render", "restored");
@@ -258,9 +255,6 @@ int pipeline_restore(pipeline_run *r)
     ro.compose = GV_COMPOSE_RESIDUAL;
     restored_writer writer = {r, 0};
     ro.each = write_restored, ro.each_ctx = &writer;
-    gv_restorer net; /* the gate is open or there is none (the decision above): the weights */
-    memset(&net, 0, sizeof net);
-    if (rc == 0) rc = gv_restorer_open(r->restorer, GV_RESTORER_NETWORK, &net);
     /* a scene checkpoint restores as its gate measured: with its composition */
     if (rc == 0 && net.scene && gv_adapt_gate_compose(&net.adaptation, &ro.compose)) rc = -1;
     if (rc == 0) rc = gv_restore_files(&net, names, r->n_clips, &ro);

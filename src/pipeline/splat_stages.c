@@ -40,10 +40,10 @@ int pipeline_train(pipeline_run *r)
     opt.regularize = r->opt->regularize;
     opt.seed = r->opt->seed;
     char label[32];
-    snprintf(label, sizeof label, "train n=%d", r->n);
+    snprintf(label, sizeof label, "train n=%d", r->interval);
     opt.progress_label = gv_log_level() >= GV_LOG_INFO ? label : NULL;
     gv_gaussians g;
-    if (gv_splat_train(r->scene, r->n, &opt, &g)) return -1;
+    if (gv_splat_train(r->scene, r->interval, &opt, &g)) return -1;
     int rc = write_model(r, &g, "sparse");
     snprintf(r->summary, sizeof r->summary, "%d Gaussians from %d training views, %d iterations", g.n, r->n_train,
              opt.iterations);
@@ -60,7 +60,7 @@ int pipeline_render_model(pipeline_run *r, const gv_gaussians *g, const char *wh
     memset(&renderer, 0, sizeof renderer);
     gv_progress bar;
     char label[48];
-    snprintf(label, sizeof label, "%s n=%d", what, r->n);
+    snprintf(label, sizeof label, "%s n=%d", what, r->interval);
     gv_progress_start(&bar, label, r->n_frames);
     int rc = 0;
     for (int i = 0; i < r->n_frames && rc == 0; i++) {
@@ -142,10 +142,10 @@ static int keep_sparse(pipeline_run *r, const char *why)
 
 int pipeline_refine(pipeline_run *r)
 {
-    char why[700];
-    int decision = pipeline_restoration_decision(r, 0, why, sizeof why);
-    if (decision < 0) return -1;
-    if (decision == 0) return keep_sparse(r, "nothing was restored");
+    /* what the restore stage decided, here or in the run this one resumes (metrics.json) */
+    int restored = pipeline_decision_ran(r, "restoration");
+    if (restored < 0) return gv_fail("%s: metrics.json records no restoration decision", r->dir);
+    if (restored == 0) return keep_sparse(r, "nothing was restored");
     pipeline_decision(r, "refinement", 1, NULL);
     gv_gaussians sparse = {0};
     view_set views = {0};
@@ -171,7 +171,7 @@ int pipeline_refine(pipeline_run *r)
     if (gv_splat_trainer_init(&t, &opt, views.n, views.cameras, views.images, extent, 0, NULL, NULL)) goto done;
     gv_progress bar;
     char label[32];
-    snprintf(label, sizeof label, "refine n=%d", r->n);
+    snprintf(label, sizeof label, "refine n=%d", r->interval);
     gv_progress_start(&bar, label, opt.iterations);
     while (t.iteration < opt.iterations) {
         if (gv_splat_trainer_step(&t)) break;

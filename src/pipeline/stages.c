@@ -27,16 +27,18 @@ typedef struct {
     int (*applies)(const pipeline_run *r);
     const char *inputs;             /* the options it depends on (keys of metrics.json's "inputs") */
     const char *outputs[4];         /* in DIR/nN; "frames/X" means every evaluated frame's PNG */
+    const char *decides;            /* the decision it records in metrics.json for a later stage
+                                       to read, or NULL */
 } stage;
 
 static const stage STAGES[] = {
-    {"train", pipeline_train, always, "iters densify regularize seed downscale", {"sparse.ply", "sparse.splat"}},
-    {"render", pipeline_render, always, "", {"frames/render"}},
-    {"adapt", pipeline_adapt, adapting, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}},
-    {"restore", pipeline_restore, restoring, "checkpoint restore_with seed", {"frames/restored"}},
-    {"refine", pipeline_refine, restoring, "refine_iters refine_weight", {"refined.ply", "refined.splat", "frames/refined"}},
-    {"evaluate", pipeline_evaluate, always, "lpips restore_with", {NULL}},
-    {"video", pipeline_video, always, "fps restore_with", {"flythrough.mp4"}},
+    {"train", pipeline_train, always, "iters densify regularize seed downscale", {"sparse.ply", "sparse.splat"}, NULL},
+    {"render", pipeline_render, always, "", {"frames/render"}, NULL},
+    {"adapt", pipeline_adapt, adapting, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}, NULL},
+    {"restore", pipeline_restore, restoring, "checkpoint restore_with seed", {"frames/restored"}, "restoration"},
+    {"refine", pipeline_refine, restoring, "refine_iters refine_weight", {"refined.ply", "refined.splat", "frames/refined"}, NULL},
+    {"evaluate", pipeline_evaluate, always, "lpips restore_with", {NULL}, NULL},
+    {"video", pipeline_video, always, "fps restore_with", {"flythrough.mp4"}, NULL},
 };
 #define N_STAGES ((int)(sizeof STAGES / sizeof STAGES[0]))
 
@@ -164,22 +166,26 @@ static int run_interval(pipeline_run *r, int last)
         }
         char why[256];
         if (!redo && pipeline_stage_done(r, s->name, s->inputs, why, sizeof why)) {
-            if (outputs_exist(r, s)) {
-                gv_info("n=%d %s: done before, skipped", r->n, s->name);
+            if (s->decides && pipeline_decision_ran(r, s->decides) < 0) {
+                gv_info("n=%d %s: its decision is not recorded (an older metrics.json): done again", r->interval,
+                        s->name);
+            } else if (outputs_exist(r, s)) {
+                gv_info("n=%d %s: done before, skipped", r->interval, s->name);
                 continue;
+            } else {
+                gv_info("n=%d %s: some of its files are missing: done again", r->interval, s->name);
             }
-            gv_info("n=%d %s: some of its files are missing: done again", r->n, s->name);
         } else if (!redo && why[0]) {
-            gv_info("n=%d %s: made before with %s: done again", r->n, s->name, why);
+            gv_info("n=%d %s: made before with %s: done again", r->interval, s->name, why);
         }
         redo = 1;
         pipeline_stage_forget(r, s->name);
         r->summary[0] = 0;
         double wall = gv_now(), cpu = cpu_seconds();
-        if (s->run(r)) return gv_fail_context("n=%d %s", r->n, s->name);
+        if (s->run(r)) return gv_fail_context("n=%d %s", r->interval, s->name);
         wall = gv_now() - wall, cpu = cpu_seconds() - cpu;
         if (pipeline_stage_record(r, s->name, s->inputs, wall, cpu)) return -1;
-        if (r->opt->on_stage) r->opt->on_stage(r->opt->on_stage_ctx, r->n, s->name, r->summary, wall, cpu);
+        if (r->opt->on_stage) r->opt->on_stage(r->opt->on_stage_ctx, r->interval, s->name, r->summary, wall, cpu);
     }
     return 0;
 }
@@ -240,6 +246,7 @@ int gv_reconstruct(const gv_reconstruct_options *asked)
     if (rc == 0) rc = gv_mkdirs(o->out_dir);
     if (rc == 0) gv_atomic_sweep(o->out_dir, NULL);
     if (rc == 0) rc = pipeline_doc_open(o, &scene, &rec, &doc);
+    int scene_ckpt = rec.scene; /* the checkpoint is adapted already (read once, here) */
     gv_restorer_free(&rec);
     for (int k = 0; k < o->n_intervals && rc == 0; k++) {
         pipeline_run r;
@@ -248,11 +255,12 @@ int gv_reconstruct(const gv_reconstruct_options *asked)
         char name[32];
         snprintf(name, sizeof name, "n%d", o->intervals[k]);
         rc = gv_scene_name_of(o->scene_dir, r.scene_name, sizeof r.scene_name) ||
-             gv_path_join(r.dir, sizeof r.dir, o->out_dir, name) || pipeline_plan(&r, &scene, o->intervals[k]) ||
-             pipeline_plan_adaptation(&r) || gv_mkdirs(r.dir) || pipeline_doc_run(&r) || pipeline_doc_write(&r);
+             gv_path_join(r.dir, sizeof r.dir, o->out_dir, name) || pipeline_plan(&r, &scene, o->intervals[k]);
+        if (rc == 0) pipeline_plan_adaptation(&r, scene_ckpt);
+        if (rc == 0) rc = gv_mkdirs(r.dir) || pipeline_doc_run(&r) || pipeline_doc_write(&r);
         if (rc == 0) {
             gv_atomic_sweep(r.dir, NULL);
-            gv_info("n=%d: %d training views, %d %s frames in %d clips", r.n, r.n_train, r.n_frames,
+            gv_info("n=%d: %d training views, %d %s frames in %d clips", r.interval, r.n_train, r.n_frames,
                     r.smooth_path ? "path" : "held-out", r.n_clips);
             rc = run_interval(&r, last);
         }

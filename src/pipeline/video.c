@@ -83,7 +83,7 @@ int pipeline_video(pipeline_run *r)
     if (pid < 0) rc = gv_fail("%s: cannot start: %s", ffmpeg, strerror(errno));
     gv_progress bar;
     char label[48];
-    snprintf(label, sizeof label, "video n=%d", r->n);
+    snprintf(label, sizeof label, "video n=%d", r->interval);
     gv_progress_start(&bar, label, v.n_total);
     for (int i = 0; i < v.n_total && rc == 0; i++) {
         rc = pipeline_video_frame(&v, i, frame);

@@ -29,7 +29,7 @@ int pipeline_video_open(pipeline_video_frames *v, pipeline_run *r)
     v->panels = 1 + v->restoring + v->truth;
     v->W = (v->panels * v->w + 1) & ~1, v->H = (v->h + 1) & ~1;
     v->scale = v->h / 144 > 1 ? v->h / 144 : 1;
-    v->steps = r->n > 8 ? r->n : 8;
+    v->steps = r->interval > 8 ? r->interval : 8;
     v->n_flight = (r->n_train - 1) * v->steps + 1;
     v->n_total = v->n_flight + r->n_frames;
     char path[4200];

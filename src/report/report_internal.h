@@ -109,7 +109,8 @@ void text_free(report_text *t);
 int text_write_atomic(const report_text *t, const char *path);
 
 /* ---- the page's parts ----------------------------------------------------------------- */
-/* A run's decisions in words, one sentence each ("" when none is recorded). */
+/* A run's decisions in words, one sentence each, ending with a full stop ("" when none is
+ * recorded). */
 void report_decisions_text(const report_run *run, char *out, size_t size);
 /* The per-n table of PSNR / SSIM (/ LPIPS) with the changes against the sparse model. */
 void report_table(report_text *t, const report_metrics *m);

@@ -157,7 +157,7 @@ static int run_section(report_text *t, const char *dir, const report_metrics *m,
     if (decisions[0]) {
         text_append(t, "<p class=\"decisions\"><b>Decided:</b> ");
         text_escaped(t, decisions);
-        text_append(t, ".</p>\n");
+        text_append(t, "</p>\n");
     }
     if (run->restorer.present && !(m->restorer.present && same_restorer(&run->restorer, &m->restorer))) {
         text_append(t, "<h3>Restorer of this run</h3>\n");

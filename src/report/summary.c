@@ -22,25 +22,27 @@ static void change_words(double change, char *out, size_t size)
         snprintf(out, size, "unchanged (%+.3f dB)", change);
 }
 
+/* A sentence each; a why follows its decision after a colon, not in parentheses, since whys
+ * hold parentheses of their own ("the gate is closed (held-back pairs -0.12 dB when restored)"). */
 void report_decisions_text(const report_run *run, char *out, size_t size)
 {
-    static const char *const kept[N_DECISIONS] = {"", "the restored frames are the renders",
-                                                  "the refined model is the sparse model"};
-    static const char *const label[N_DECISIONS] = {"adaptation", "restoration", "refinement"};
+    static const char *const kept[N_DECISIONS] = {"", " The restored frames are the renders.",
+                                                  " The refined model is the sparse model."};
+    static const char *const label[N_DECISIONS] = {"Adaptation", "Restoration", "Refinement"};
     size_t used = 0;
     out[0] = '\0';
 #define ADD(...) (used < size ? used += (size_t)snprintf(out + used, size - used, __VA_ARGS__) : 0)
     if (!strcmp(run->restore_with, "none")) {
-        snprintf(out, size, "no restoration or refinement (--no-restore): the sparse model only");
+        snprintf(out, size, "No restoration or refinement (--no-restore): the sparse model only.");
         return;
     }
-    if (run->restore_with[0]) ADD("restoration mode %s", run->restore_with);
+    if (run->restore_with[0]) ADD("Restoration mode %s.", run->restore_with);
     for (int k = 0; k < N_DECISIONS; k++) {
         const report_decision *d = &run->decisions[k];
         if (!d->present) continue;
-        if (d->ran) ADD("%s%s ran", used ? "; " : "", label[k]);
-        else ADD("%s%s skipped (%s)%s%s", used ? "; " : "", label[k], d->why, kept[k][0] ? ": " : "", kept[k]);
-        if (k == DECISION_ADAPTATION && run->gate[0]) ADD("; the gate is %s", run->gate);
+        if (d->ran) ADD("%s%s ran.", used ? " " : "", label[k]);
+        else ADD("%s%s skipped%s%s.%s", used ? " " : "", label[k], d->why[0] ? ": " : "", d->why, kept[k]);
+        if (k == DECISION_ADAPTATION && run->gate[0]) ADD(" The gate is %s.", run->gate);
     }
 #undef ADD
 }

@@ -87,7 +87,7 @@ static int restore_one(gv_restorer *r, const gv_clip *clip, const char *name, co
 static int run_selected(const gv_run_id *id, const gv_restore_options *o)
 {
     return (!o->split || !strcmp(id->split, o->split)) && (!o->scene || !strcmp(id->scene, o->scene)) &&
-           (!o->interval || id->n == o->interval);
+           (!o->interval || id->interval == o->interval);
 }
 
 /* The manifest entry of a clip file (NULL when the manifest does not list it). */
@@ -118,9 +118,9 @@ int gv_restore_files(gv_restorer *r, const char *const *paths, int n_paths, cons
             break;
         }
         const gv_run_id *id = &clip.info.id;
-        if ((o->scene && strcmp(id->scene, o->scene)) || (o->interval && id->n != o->interval)) {
-            rc = gv_fail("%s: a clip of %s at n = %d, not of %s at n = %d", paths[i], id->scene, id->n,
-                         o->scene ? o->scene : id->scene, o->interval ? o->interval : id->n);
+        if ((o->scene && strcmp(id->scene, o->scene)) || (o->interval && id->interval != o->interval)) {
+            rc = gv_fail("%s: a clip of %s at n = %d, not of %s at n = %d", paths[i], id->scene, id->interval,
+                         o->scene ? o->scene : id->scene, o->interval ? o->interval : id->interval);
             gv_clip_free(&clip);
             break;
         }

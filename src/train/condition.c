@@ -200,9 +200,9 @@ int gv_clip_latents_shape(const gv_vae *vae, const gv_model_config *cfg, const g
     int per_frame = cfg->variant.per_frame, frames = per_frame ? 1 : GV_CLIP_FRAMES, width = 0, height = 0;
     if (gv_condition_padded_size(cfg, info->width, info->height, &width, &height) ||
         check_sizes(vae, cfg, width, height, frames))
-        return gv_fail_context("clip %s n%d frames %d-%d", info->id.scene, info->id.n, info->frames[0],
+        return gv_fail_context("clip %s n%d frames %d-%d", info->id.scene, info->id.interval, info->frames[0],
                                info->frames[GV_CLIP_FRAMES - 1]);
-    l->n = info->id.n;
+    l->interval = info->id.interval;
     l->frames = GV_CLIP_FRAMES, l->height = height, l->width = width;
     l->batch = per_frame ? GV_CLIP_FRAMES - 2 : 1;
     l->z_dim = vae->cfg.z_dim;
@@ -281,7 +281,7 @@ int gv_clip_latents_prepare(gv_vae *vae, const gv_model_config *cfg, const gv_cl
     gv_clip_free(&padded);
     if (rc) {
         gv_clip_latents_free(out);
-        return gv_fail_context("clip %s n%d frames %d-%d", info->id.scene, info->id.n, info->frames[0],
+        return gv_fail_context("clip %s n%d frames %d-%d", info->id.scene, info->id.interval, info->frames[0],
                                info->frames[GV_CLIP_FRAMES - 1]);
     }
     return 0;

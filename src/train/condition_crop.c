@@ -27,7 +27,7 @@ static int same_shape(const gv_clip_latents *a, const gv_clip_latents *b)
 int gv_clip_latents_crop(const gv_clip_latents *src, int y, int x, int h, int w, gv_clip_latents *dst)
 {
     if (y < 0 || x < 0 || h < 1 || w < 1 || y + h > src->lh || x + w > src->lw)
-        return gv_fail("clip n%d: crop rows %d-%d, columns %d-%d outside its %dx%d latent grid", src->n, y, y + h - 1,
+        return gv_fail("clip n%d: crop rows %d-%d, columns %d-%d outside its %dx%d latent grid", src->interval, y, y + h - 1,
                        x, x + w - 1, src->lh, src->lw);
     int sf = src->height / src->lh; /* pixels per latent cell */
     gv_clip_latents want = *src;
@@ -38,7 +38,7 @@ int gv_clip_latents_crop(const gv_clip_latents *src, int y, int x, int h, int w,
         dst->z_clean = dst->z_corrupt = dst->vace = dst->plucker = NULL;
         if (gv_clip_latents_alloc(dst, src->plucker != NULL)) return -1;
     }
-    dst->n = src->n, dst->frames = src->frames;
+    dst->interval = src->interval, dst->frames = src->frames;
     memcpy(dst->no_target, src->no_target, sizeof dst->no_target);
     int z_planes = src->batch * src->z_dim * src->latent_frames;
     copy_window(src->z_clean, z_planes, src->lh, src->lw, y, x, h, w, dst->z_clean);

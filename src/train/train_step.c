@@ -57,7 +57,7 @@ static gv_tensor *target_mask(gv_graph *g, const gv_clip_latents *l, const int s
             }
     *share = (double)kept / (double)m->numel;
     if (kept == 0) {
-        gv_fail("clip n%d: no latent frame has ground truth", l->n);
+        gv_fail("clip n%d: no latent frame has ground truth", l->interval);
         return NULL;
     }
     return m;
@@ -81,14 +81,14 @@ static int side_inputs(gv_dit *m, gv_graph *g, const gv_clip_latents *l, int ren
     int B = l->batch, T = l->latent_frames;
     if (c->dit.n_vace_layers > 0) {
         if (l->vace_dim != c->dit.vace_in_dim)
-            return gv_fail("clip n%d: VACE context of %d channels, the model takes %d", l->n, l->vace_dim, c->dit.vace_in_dim);
+            return gv_fail("clip n%d: VACE context of %d channels, the model takes %d", l->interval, l->vace_dim, c->dit.vace_in_dim);
         in->vace = gv_tensor_new(g, 5, (int[]){B, l->vace_dim, T, l->lh, l->lw});
         if (!in->vace) return -1;
         gv_objective_vace(l, renders, in->vace->data);
     }
     if (c->dit.cross_attn && !(in->text = gv_dit_text_input(m, g, B))) return -1; /* the prompt's, or zeros */
     if (c->variant.camera != GV_CAMERA_NONE) {
-        if (!l->plucker) return gv_fail("clip n%d: no Plücker field (prepared without cameras)", l->n);
+        if (!l->plucker) return gv_fail("clip n%d: no Plücker field (prepared without cameras)", l->interval);
         in->plucker = gv_tensor_from(g, 5, (int[]){B, 6, l->plucker_frames, l->height, l->width}, l->plucker);
         if (!in->plucker) return -1;
     }
@@ -100,8 +100,8 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
 {
     const int B = l->batch, shape[5] = {B, l->z_dim, l->latent_frames, l->lh, l->lw};
     float timestep[GV_CLIP_FRAMES];
-    if (B < 1 || B > GV_CLIP_FRAMES) return gv_fail("clip n%d: batch %d of latents", l->n, B);
-    if (l->z_dim != m->cfg.dit.in_dim) return gv_fail("clip n%d: latents of %d channels, the model takes %d", l->n, l->z_dim, m->cfg.dit.in_dim);
+    if (B < 1 || B > GV_CLIP_FRAMES) return gv_fail("clip n%d: batch %d of latents", l->interval, B);
+    if (l->z_dim != m->cfg.dit.in_dim) return gv_fail("clip n%d: latents of %d channels, the model takes %d", l->interval, l->z_dim, m->cfg.dit.in_dim);
     /* t = 1000 sigma (docs/reference/wan-vace-gaussvid.md 2.3) */
     for (int b = 0; b < B; b++) timestep[b] = 1000.0f * d->t;
     gv_graph_reset(g);
@@ -111,7 +111,7 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
     int rc = x_t && target ? side_inputs(m, g, l, obj == GV_OBJECTIVE_FINETUNE || d->renders, &in) : -1;
     gv_tensor *v = NULL, *loss = NULL, *fm = NULL, *mask = NULL;
     double share = 1.0;
-    if (rc == 0 && gv_clip_latents_masked(l) && !(mask = target_mask(g, l, shape, &share))) rc = gv_fail_context("clip n%d", l->n);
+    if (rc == 0 && gv_clip_latents_masked(l) && !(mask = target_mask(g, l, shape, &share))) rc = gv_fail_context("clip n%d", l->interval);
     if (rc == 0) {
         gv_objective_inputs(l, obj, d->t, eps, x_t->data, target->data);
         in.latent = x_t;
@@ -133,7 +133,7 @@ int gv_train_sample(gv_dit *m, gv_graph *g, const gv_clip_latents *l, gv_objecti
             gv_tensor *lat = masked_loss(g, gv_sub(g, x_t, gv_scale(g, v, d->t)), z0, mask, share, 0);
             loss = gv_add(g, loss, gv_scale(g, lat, (float)(scale * d->w_cur * d->w_lat)));
         }
-        if (!loss) rc = gv_fail_context("clip n%d", l->n);
+        if (!loss) rc = gv_fail_context("clip n%d", l->interval);
     }
     if (rc == 0 && backward) rc = gv_backward(g, loss);
     if (rc == 0 && out) {

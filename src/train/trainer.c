@@ -91,7 +91,7 @@ static int ctx_init(loop_ctx *x, gv_dit *m, const gv_latent_set *data, const gv_
     if (curriculum) x->difficulty = malloc((size_t)data->count * sizeof *x->difficulty);
     if (!x->eps || !x->index || !x->weight || (curriculum && !x->difficulty)) return gv_fail("training: out of memory");
     for (int i = 0; curriculum && i < data->count; i++)
-        x->difficulty[i] = gv_curriculum_difficulty(data->clips[i].n, o->n_min, o->n_max);
+        x->difficulty[i] = gv_curriculum_difficulty(data->clips[i].interval, o->n_min, o->n_max);
     if (o->objective == GV_OBJECTIVE_FINETUNE && o->relative_loss && gv_train_relative_weights(data, &x->relative)) return -1;
     if (!gv_dist_is_root()) return 0; /* rank 0 writes the logs */
     /* resumed after a kill: the rows past the checkpoint are written again */
@@ -192,13 +192,13 @@ static int validate(gv_dit *m, loop_ctx *x, const gv_train_state *st, gv_progres
     size_t used = 0;
     for (int k = 0; k < v.groups && used < sizeof per_n; k++)
         used += (size_t)snprintf(per_n + used, sizeof per_n - used, "%sn=%d %.5f/%.5f (%+.3f dB)", k ? ", " : "",
-                                 v.n[k], v.loss[k], v.identity[k], v.gain_db[k]);
+                                 v.intervals[k], v.loss[k], v.identity[k], v.gain_db[k]);
     gv_progress_note(bar, "validation at step %ld: loss %.5f, identity %.5f (%+.1f %%), latent gain %+.3f dB; %s",
                      st->step, v.all_loss, v.all_identity,
                      v.all_identity > 0 ? 100 * (v.all_loss / v.all_identity - 1) : 0.0, v.all_gain_db, per_n);
     if (x->val_log) {
         for (int k = 0; k < v.groups; k++)
-            fprintf(x->val_log, "%ld\t%d\t%d\t%.6f\t%.6f\t%.4f\n", st->step, v.n[k], v.clips[k], v.loss[k],
+            fprintf(x->val_log, "%ld\t%d\t%d\t%.6f\t%.6f\t%.4f\n", st->step, v.intervals[k], v.clips[k], v.loss[k],
                     v.identity[k], v.gain_db[k]);
         fprintf(x->val_log, "%ld\tall\t%d\t%.6f\t%.6f\t%.4f\n", st->step, v.all_clips, v.all_loss, v.all_identity,
                 v.all_gain_db);

@@ -27,9 +27,9 @@
 static int group_of(gv_validation *out, int n)
 {
     for (int i = 0; i < out->groups; i++)
-        if (out->n[i] == n) return i;
+        if (out->intervals[i] == n) return i;
     if (out->groups == GV_VAL_GROUPS) return -1;
-    out->n[out->groups] = n;
+    out->intervals[out->groups] = n;
     return out->groups++;
 }
 
@@ -52,7 +52,7 @@ int gv_train_validate(gv_dit *m, gv_graph *g, const gv_latent_set *val, double t
             if (rc) gv_fail_context("validation clip %s", val->names[i]);
             loss += s.fm / GV_VAL_TIMES;
         }
-        int k = group_of(out, l->n);
+        int k = group_of(out, l->interval);
         if (k < 0) {
             rc = gv_fail("validation: clips of more than %d intervals n", GV_VAL_GROUPS);
             break;

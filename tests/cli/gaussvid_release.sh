@@ -10,15 +10,11 @@
 # Usage: bash gaussvid_release.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup gaussvid_release "$1"
-FIX="$(cd "$(dirname "$0")/../fixtures/release" && pwd)"
-REL="$FIX/tiny-vace-bf16"
+source "$(dirname "$0")/lib/release_fixture.sh"
 WRITER="$(dirname "$G")/test_release_lora"
 L="$T/lora"
 mkdir -p "$L"
 check "the checkpoints are written" "$WRITER" --write-fixtures "$L"
-CFG="$T/tiny-stats.json"
-sed 's/"spatial_factor": 8/"spatial_factor": 8, "latent_mean": [0.1, -0.2, 0.3, 0.0], "latent_std": [1.5, 0.8, 1.2, 1.0]/' \
-    "$(dirname "$0")/../../configs/tiny.json" > "$CFG"
 
 expect 0 "merge help" -- "$G" model merge --help
 has "usage: gaussvid model merge"
@@ -70,13 +66,7 @@ expect 1 "a precision that is none" -- "$G" model merge --base "$FIX/tiny_dit_f3
 one_line "--precision: 'fp8' is not bf16 or f32"
 
 # Restoring with the fused base runs and gives other frames than the plain base.
-A="$T/room-a"
-B="$T/room-b"
-D="$T/data"
-expect 0 "synth a" -- "$G" scene synth --seed 3 --frames 14 --size 32x32 --samples 1 --out "$A" --quiet
-expect 0 "synth b" -- "$G" scene synth --seed 4 --frames 14 --size 32x32 --samples 1 --out "$B" --quiet
-expect 0 "dataset" -- "$G" dataset build --scenes "$A" "$B" --eval-scenes room-b --intervals 6 --iters 20 \
-    --clips-per-run 1 --seed 5 --out "$D" --quiet --threads 1
+release_rooms 1
 for K in fused plain; do
     expect 0 "restore with the $K base" -- "$G" restore --ckpt "$T/$K/base.safetensors" --clips "$D" --split eval \
         --sampler released --compose decoded --out "$T/restored-$K" --quiet --threads 1

@@ -7,17 +7,7 @@
 # Usage: bash model_import.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup model_import "$1"
-FIX="$(cd "$(dirname "$0")/../fixtures/release" && pwd)"
-REL="$FIX/tiny-vace-bf16"
-CONFIGS="$(cd "$(dirname "$0")/../../configs" && pwd)"
-
-# The tiny config with latent statistics (the Wan presets carry the published ones), which
-# training requires of its VAE.
-CFG="$T/tiny-stats.json"
-sed 's/"spatial_factor": 8/"spatial_factor": 8, "latent_mean": [0.1, -0.2, 0.3, 0.0], "latent_std": [1.5, 0.8, 1.2, 1.0]/' \
-    "$CONFIGS/tiny.json" > "$CFG"
-grep -q latent_mean "$CFG"
-check_rc "config with statistics" $?
+source "$(dirname "$0")/lib/release_fixture.sh" # FIX, REL, CFG (the tiny config with latent statistics)
 
 expect 0 "help" -- "$G" model import --help
 has "usage: gaussvid model import"
@@ -73,13 +63,7 @@ has "no text context (no text encoder and tokenizer): the network gets zeros"
 
 # Fine-tuning (LoRA + a fresh camera encoder) from the imported base, and restoring with the
 # base (zero-shot) and with the fine-tuned checkpoint, on a small generated dataset.
-A="$T/room-a"
-B="$T/room-b"
-D="$T/data"
-expect 0 "synth a" -- "$G" scene synth --seed 3 --frames 14 --size 32x32 --samples 1 --out "$A" --quiet
-expect 0 "synth b" -- "$G" scene synth --seed 4 --frames 14 --size 32x32 --samples 1 --out "$B" --quiet
-expect 0 "dataset" -- "$G" dataset build --scenes "$A" "$B" --eval-scenes room-b --intervals 6 --iters 20 \
-    --clips-per-run 2 --seed 5 --out "$D" --quiet --threads 1
+release_rooms 2
 expect 0 "train from the imported base" -- "$G" train --clips "$D" --base "$OUT/base.safetensors" --config "$CFG" \
     --steps 2 --batch 1 --out "$T/ft.safetensors" --quiet --threads 1
 exists "$T/ft.safetensors"

@@ -7,7 +7,8 @@
 # (restored frames replaced by the ground truth beat restored frames replaced by the renders);
 # the smooth path of n = 1; the adapt stage; the gated default (a scene with too few views to
 # adapt keeps the sparse model; a closed gate skips restoration and refinement); --no-restore;
-# the presets and the flags over them; bad input gives one line and a non-zero exit.
+# the presets and the flags over them; the restorer opened once by restore and not by refine
+# (strace); bad input gives one line and a non-zero exit.
 # Usage: bash reconstruct.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup reconstruct "$1"
@@ -360,7 +361,39 @@ fi
 # ... to the end: the summary says the restorer was adapted and what its gate decided.
 expect 0 "a scene checkpoint, to the end" -- "$G" reconstruct "${RC[@]}" --ckpt A/n6/restorer.safetensors --out SC
 has "adapted to the scene where it has the views for it:"
-has "decided: restoration mode checkpoint; adaptation skipped (--restore-with checkpoint); the gate is"
+has "decided: Restoration mode checkpoint. Adaptation skipped: --restore-with checkpoint. The gate is"
+# One open of the restorer per reading (issue 40): the checks before the stages, then the restore
+# stage (its weights only when its gate is open, as here); refine reads restore's decision from
+# metrics.json, so a resumed refine opens it only for the checks. Counted with strace when present.
+python3 "$(dirname "$0")/lib/pad_checkpoint.py" meta A/n6/restorer.safetensors open.safetensors gate=open
+if command -v strace >/dev/null && strace -f -e trace=openat -o /dev/null true 2>/dev/null; then
+    opens() { grep -v ENOENT opens.log | grep -cE "(\"|/)$1\""; }
+    strace -f -e trace=openat,open -o opens.log "$G" reconstruct "${RC[@]}" --ckpt open.safetensors --out SO \
+        --stop-after refine --quiet >/dev/null 2>&1
+    check "restored and refined under strace" python3 -c "
+import json; d = json.load(open('SO/metrics.json'))['runs'][0]['decisions']
+assert d['gate'] == 'open' and d['restoration']['ran'] and d['refinement']['ran'], d"
+    n=$(opens open.safetensors)
+    check "the restorer opened for the checks and by restore alone (opened $n times)" test "$n" -eq 2
+    strace -f -e trace=openat,open -o opens.log "$G" reconstruct "${RC[@]}" --ckpt open.safetensors --out SO \
+        --stop-after refine --refine-iters 41 >"$T/out" 2>"$T/err"
+    check "restore skipped" grep -q "n=6 restore: done before, skipped" "$T/err"
+    has "n=6 refine: 41 iterations on 5 training views (weight 1) and 20 restored frames"
+    n=$(opens open.safetensors)
+    check "a resumed refine reads the decision, not the restorer (opened $n times)" test "$n" -eq 1
+else
+    echo "skipped: no working strace to count the opens"
+    expect 0 "restore and refine, gate open" -- "$G" reconstruct "${RC[@]}" --ckpt open.safetensors --out SO \
+        --stop-after refine
+fi
+# A metrics.json from before decisions were recorded: restore runs again to decide.
+python3 -c "
+import json; d = json.load(open('SO/metrics.json')); del d['runs'][0]['decisions']['restoration']
+json.dump(d, open('SO/metrics.json', 'w'))"
+expect 0 "no restoration decision recorded" -- "$G" reconstruct "${RC[@]}" --ckpt open.safetensors --out SO \
+    --stop-after refine
+check "restore redone" grep -q "n=6 restore: its decision is not recorded (an older metrics.json): done again" "$T/err"
+has "n=6 refine: 40 iterations on 5 training views"
 # --adapt to the end: the report's restorer is the base adapted per n, with one gate per n.
 expect 0 "adapt, to the end" -- "$G" reconstruct "${RC0[@]}" --adapt --adapt-config tiny1.json --adapt-steps 2 --out A
 check "the report: one gate per n" grep -q "one per n: see each interval" A/report.html
@@ -394,8 +427,8 @@ else:
 print(d["gate"])
 PY
 check "the gate's decision is kept" python3 check_gate.py A 6
-has "decided: restoration mode adapted; adaptation ran; the gate is"
-check "the report says what was decided" grep -q "<b>Decided:</b> restoration mode adapted; adaptation ran; the gate is" A/report.html
+has "decided: Restoration mode adapted. Adaptation ran. The gate is"
+check "the report says what was decided" grep -q "<b>Decided:</b> Restoration mode adapted. Adaptation ran. The gate is" A/report.html
 
 # The gated default where the scene has too few training views to adapt (n = 8: 4 views;
 # the internal pairs need 5): the sparse model is kept, one line says why, no network runs.
@@ -420,9 +453,9 @@ for f in run['frames']:
         assert f[kind] == f['sparse'], (f, kind)
 assert filecmp.cmp('F/n8/sparse.ply', 'F/n8/refined.ply', shallow=False)
 assert run['all_held_out']['refined'] == run['all_held_out']['sparse']"
-has "decided: restoration mode adapted; adaptation skipped (cannot run here: 25 frames give 4 training views at n = 8 \
-(frames 0, 8, ...); scene-internal pairs need at least 5 (at least 33 frames)); restoration skipped (adaptation cannot \
-run here): the restored frames are the renders; refinement skipped (nothing was restored): the refined model is the sparse model"
+has "decided: Restoration mode adapted. Adaptation skipped: cannot run here: 25 frames give 4 training views at n = 8 \
+(frames 0, 8, ...); scene-internal pairs need at least 5 (at least 33 frames). Restoration skipped: adaptation cannot \
+run here. The restored frames are the renders. Refinement skipped: nothing was restored. The refined model is the sparse model."
 
 # --no-restore: the sparse model, its renders, evaluation, video and report; no restorer is
 # needed (the checkpoint named does not exist) and no restored or refined frame is written.
@@ -439,10 +472,10 @@ assert run['means']['restored'] is None and run['means']['refined'] is None and 
 assert run['means']['sparse'] == full['means']['sparse'], (run['means'], full['means'])
 for f in run['frames']:
     assert f['images']['restored'] is None and f['images']['refined'] is None and f['restored'] is None and f['refined'] is None"
-has "decided: no restoration or refinement (--no-restore): the sparse model only"
+has "decided: No restoration or refinement (--no-restore): the sparse model only."
 if [ $HAVE_FFMPEG = 1 ]; then
     exists NR/report.html
-    check "the report says it" grep -q "<b>Decided:</b> no restoration or refinement (--no-restore)" NR/report.html
+    check "the report says it" grep -q "<b>Decided:</b> No restoration or refinement (--no-restore): the sparse model only.</p>" NR/report.html
     check "the no-restore video is 33 + 20 frames of sparse (render) | ground truth" test "$(ffprobe -v error \
         -count_frames -select_streams v:0 -show_entries stream=nb_read_frames,width,height -of csv=p=0 \
         NR/n6/flythrough.mp4)" = "128,48,53"

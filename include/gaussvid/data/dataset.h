@@ -31,7 +31,7 @@
 typedef struct {
     char scene[GV_SCENE_NAME_MAX];
     char split[8];                   /* "train" or "eval" */
-    int n;
+    int interval;
 } gv_run_id;
 
 /* ---- sampling.c: which frames make a clip ----------------------------------------------
@@ -303,7 +303,7 @@ uint64_t gv_run_seed(uint64_t seed, const char *scene, int n);
 
 /* ---- stats.c: `dataset stats` ------------------------------------------------------------ */
 typedef struct {
-    int n;
+    int interval;
     int clips_train, clips_eval;
     int runs;
     int frames;                      /* held-out frames measured */

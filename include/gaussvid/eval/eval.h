@@ -16,7 +16,7 @@
 /* PSNR and SSIM (metrics.h, as the 3DGS evaluation) of the three intermediates, baseline
  * (the corrupted inputs) and restored, summed per interval n. */
 typedef struct {
-    int n;
+    int interval;
     int clips, frames;
     double psnr_base, ssim_base, psnr_rest, ssim_rest; /* sums until gv_eval_finish, then means */
     double lpips_base, lpips_rest;                     /* the same, when the table has LPIPS */

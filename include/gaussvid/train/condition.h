@@ -37,7 +37,7 @@
 
 /* One 5-frame clip prepared for the network (float, channel-first, layouts above). */
 typedef struct {
-    int n;                            /* the clip's interval */
+    int interval;                     /* the clip's interval n */
     int frames, height, width;        /* pixel clip: 5 x H x W, padded to the block (below) */
     int batch;                        /* 1; 3 for the per-frame restorer */
     int z_dim, latent_frames, lh, lw; /* latent grid */

@@ -191,7 +191,7 @@ void gv_train_data_text(const gv_latent_set *data, const char *split, char *out,
 #define GV_VAL_GROUPS 16         /* intervals n told apart */
 typedef struct gv_validation {
     int groups;                  /* distinct intervals n, in order of appearance */
-    int n[GV_VAL_GROUPS], clips[GV_VAL_GROUPS];
+    int intervals[GV_VAL_GROUPS], clips[GV_VAL_GROUPS];
     double loss[GV_VAL_GROUPS];  /* mean velocity MSE = restored latent MSE (one step eps - v) */
     double identity[GV_VAL_GROUPS]; /* the identity's: mean (z0* - z-hat)^2 */
     double gain_db[GV_VAL_GROUPS];  /* mean over clips of 10 log10(identity / loss): > 0 restores */
