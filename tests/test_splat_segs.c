@@ -1,4 +1,5 @@
 /* SE-GS's uncertainty-aware perturbation (src/splat/segs.c):
+ * - `segs` in the --regularize list;
  * - the uncertainty map of a hand-built stack (one pixel varies: its unbiased standard
  *   deviation spread by the 5 x 5 box, exact values);
  * - the threshold (the top 5 % of the pixels, floored at 0.01);
@@ -17,6 +18,20 @@
 #include "gaussvid/io/colmap.h"
 #include "gaussvid/splat/splat_train.h"
 #include "check.h"
+
+/* `segs` in the --regularize list, alone and with the others, in the names' order. */
+static void test_parse(void)
+{
+    char buf[64];
+    CHECK(gv_splat_regularize_parse("segs") == GV_REGULARIZE_SEGS);
+    int set = gv_splat_regularize_parse("segs,corgs,dropgaussian");
+    CHECK(set == (GV_REGULARIZE_SEGS | GV_REGULARIZE_CORGS | GV_REGULARIZE_DROPGAUSSIAN));
+    gv_splat_regularize_name(set, buf, sizeof buf);
+    CHECK(strcmp(buf, "dropgaussian,corgs,segs") == 0);
+    CHECK(gv_splat_regularize_parse("segs,segs") == -1);
+    CHECK(gv_splat_regularize_parse("seg") == -1);
+    CHECK((GV_REGULARIZE_TWO_FIELDS & GV_REGULARIZE_SEGS) && (GV_REGULARIZE_TWO_FIELDS & GV_REGULARIZE_CORGS));
+}
 
 static void test_uncertainty(void)
 {
@@ -230,6 +245,7 @@ static void test_pseudo_views(void)
 
 int main(void)
 {
+    test_parse();
     test_uncertainty();
     test_threshold();
     test_distance();
