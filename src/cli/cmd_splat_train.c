@@ -31,7 +31,7 @@ int cmd_splat_train(int argc, char **argv)
     double grad_threshold = 0, per_pixel = 0, regularizer = 0.01, fsgs_distance = 0.1,
            corgs_distance = 0.05, corgs_pseudo = 1.0;
     const char *densify = "lean", *regularize = "none";
-    int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0;
+    int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0, segs_interval = 500;
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &scene_dir, "DIR", "scene folder (COLMAP sparse/0 or transforms.json)", 1},
         {"out", GV_FLAG_STRING, &out, "FILE.ply", "the trained model (3DGS .ply)", 1},
@@ -45,9 +45,10 @@ int cmd_splat_train(int argc, char **argv)
         {"sparse-adam", GV_FLAG_BOOL, &sparse_adam, NULL,
          "lean and reference: Adam on the visible Gaussians only (default: all; mcmc steps all)", 0},
         {"densify", GV_FLAG_STRING, &densify, "MODE", "lean (default), reference or mcmc", 0},
-        {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "sparse-view regularisers: none (default), dropgaussian, fsgs, corgs", 0},
+        {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "sparse-view regularisers: none (default), dropgaussian, fsgs, corgs, segs", 0},
         {"corgs-distance", GV_FLAG_DOUBLE, &corgs_distance, "X", "corgs: co-prune Gaussians without a counterpart within X x the scene extent (default 0.05)", 0},
-        {"corgs-pseudo", GV_FLAG_DOUBLE, &corgs_pseudo, "W", "corgs: weight of the pseudo-view term (default 1; 0: co-pruning alone)", 0},
+        {"corgs-pseudo", GV_FLAG_DOUBLE, &corgs_pseudo, "W", "corgs, segs: weight of the two fields' pseudo-view term (default 1; 0: off)", 0},
+        {"segs-interval", GV_FLAG_INT, &segs_interval, "N", "segs: iterations between the pseudo-view renders that decide the perturbation (default 500)", 0},
         {"fsgs-distance", GV_FLAG_DOUBLE, &fsgs_distance, "X", "fsgs: unpool where the proximity score exceeds X x the scene extent (default 0.1)", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
@@ -82,6 +83,14 @@ int cmd_splat_train(int argc, char **argv)
         "             pruned (lean, reference); the first field is the model; from\n"
         "             iteration 500 the two fields' renders at a camera between two\n"
         "             training views are pulled together (--corgs-pseudo)\n"
+        "  segs       SE-GS's self-ensembling: the same second field and pseudo-view\n"
+        "             term (twice to four times the time); every --segs-interval\n"
+        "             iterations the model is rendered at 24 pseudo views near the\n"
+        "             training cameras, and the second field's Gaussians covering the\n"
+        "             pixels where its last 3 renders disagree most get random noise\n"
+        "             (position, opacity, scale, rotation; ratio 0.08 down to 0.02), so\n"
+        "             the model is pulled towards an ensemble of perturbed fields; with\n"
+        "             corgs too, co-pruning as well (the SE-GS release's configuration)\n"
         "--iters N stops the schedule early (nothing is rescaled; the drop share\n"
         "follows --iters).\n"
         "The last line gives the Gaussian count and the Gaussians per training pixel.\n"
@@ -114,6 +123,10 @@ int cmd_splat_train(int argc, char **argv)
         fprintf(stderr, "gaussvid splat train: --corgs-pseudo must be 0 or more\n");
         return 2;
     }
+    if (segs_interval < 1) {
+        fprintf(stderr, "gaussvid splat train: --segs-interval must be at least 1\n");
+        return 2;
+    }
     if (!(fsgs_distance > 0) || !(corgs_distance > 0)) {
         fprintf(stderr, "gaussvid splat train: --fsgs-distance and --corgs-distance must be positive\n");
         return 2;
@@ -135,6 +148,7 @@ int cmd_splat_train(int argc, char **argv)
     opt.fsgs_distance = fsgs_distance;
     opt.corgs_distance = corgs_distance;
     opt.corgs_pseudo_weight = corgs_pseudo;
+    opt.segs_interval = segs_interval;
     opt.progress_label = "train";
     gv_scene_options so = {.downscale = downscale, .white_background = white_bg};
     gv_scene scene;

@@ -8,7 +8,9 @@
  * gv_splat_corgs_step. CoR-GS's other term: at a camera between two training views (where
  * nothing supervises them) the two fields' renders are pulled together, each towards the
  * other, with the training loss's form; its gradient is added to each field's before the
- * Adam step, on the union of the rows the two renders saw. */
+ * Adam step, on the union of the rows the two renders saw. SE-GS (segs.c) trains the same two
+ * fields with the same pseudo-view term, and perturbs the second where the first's renders at
+ * pseudo views change over time; co-pruning is CoR-GS's alone. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -192,19 +194,22 @@ static int pseudo_term(gv_splat_corgs *c, gv_splat_trainer *a, gv_splat_trainer 
 }
 
 int gv_splat_corgs_step(gv_splat_corgs *c, gv_splat_trainer *a, gv_splat_trainer *b, double tau,
-                        long *pruned)
+                        long *pruned, gv_splat_segs *segs)
 {
     if (gv_splat_trainer_forward_backward(a) != 0 || gv_splat_trainer_forward_backward(b) != 0)
         return -1;
     if (c->weight > 0 && a->iteration > c->from && a->n_views > 1 && pseudo_term(c, a, b) != 0)
         return gv_fail_context("train: iteration %d (pseudo view)", a->iteration);
     if (gv_splat_trainer_update(a) != 0 || gv_splat_trainer_update(b) != 0) return -1;
-    if (!(a->last_control & 1) && !(b->last_control & 1)) return 0; /* not a densification */
-    int pa, pb;
-    if (gv_splat_corgs_coprune(&a->params, &a->adam, &b->params, &b->adam, tau * a->extent, &pa,
-                               &pb) != 0 ||
-        gv_splat_trainer_rows_changed(a) != 0 || gv_splat_trainer_rows_changed(b) != 0)
-        return gv_fail_context("train: iteration %d (co-pruning)", a->iteration);
-    pruned[0] += pa, pruned[1] += pb;
-    return 0;
+    int densified = (a->last_control & 1) || (b->last_control & 1);
+    if (densified && (a->opt.regularize & GV_REGULARIZE_CORGS)) {
+        int pa, pb;
+        if (gv_splat_corgs_coprune(&a->params, &a->adam, &b->params, &b->adam, tau * a->extent, &pa,
+                                   &pb) != 0 ||
+            gv_splat_trainer_rows_changed(a) != 0 || gv_splat_trainer_rows_changed(b) != 0)
+            return gv_fail_context("train: iteration %d (co-pruning)", a->iteration);
+        pruned[0] += pa, pruned[1] += pb;
+    }
+    /* SE-GS perturbs the second field after its step (its rows do not change). */
+    return segs ? gv_splat_segs_observe(segs, a, b) : 0;
 }

@@ -57,6 +57,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     opt->fsgs_distance = 0.1;
     opt->corgs_distance = 0.05;
     opt->corgs_pseudo_weight = 1.0;
+    opt->segs_interval = 500; /* SE-GS's release, noise_interval */
 }
 
 double gv_splat_densify_threshold(const gv_splat_train_options *opt)
@@ -84,6 +85,7 @@ static const struct { const char *name; int bit; } REGULARIZERS[] = {
     {"dropgaussian", GV_REGULARIZE_DROPGAUSSIAN},
     {"fsgs", GV_REGULARIZE_FSGS},
     {"corgs", GV_REGULARIZE_CORGS},
+    {"segs", GV_REGULARIZE_SEGS},
 };
 enum { N_REGULARIZERS = sizeof REGULARIZERS / sizeof REGULARIZERS[0] };
 
@@ -146,8 +148,10 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
         return gv_fail("train: fsgs unpools at the densification steps of lean or reference density control, not mcmc");
     if ((opt->regularize & GV_REGULARIZE_CORGS) && opt->densify_mode == GV_DENSIFY_MCMC)
         return gv_fail("train: corgs co-prunes at the densification steps of lean or reference density control, not mcmc");
-    if ((opt->regularize & GV_REGULARIZE_CORGS) && !(opt->corgs_pseudo_weight >= 0 && isfinite(opt->corgs_pseudo_weight)))
-        return gv_fail("train: the corgs pseudo-view weight is %g; it must be finite and >= 0", opt->corgs_pseudo_weight);
+    if ((opt->regularize & GV_REGULARIZE_TWO_FIELDS) && !(opt->corgs_pseudo_weight >= 0 && isfinite(opt->corgs_pseudo_weight)))
+        return gv_fail("train: the pseudo-view weight is %g; it must be finite and >= 0", opt->corgs_pseudo_weight);
+    if ((opt->regularize & GV_REGULARIZE_SEGS) && opt->segs_interval < 1)
+        return gv_fail("train: the segs interval is %d; it must be at least 1", opt->segs_interval);
     if ((opt->regularize & GV_REGULARIZE_CORGS) && !(opt->corgs_distance > 0))
         return gv_fail("train: the corgs distance is %g; it must be positive", opt->corgs_distance);
     if ((opt->regularize & GV_REGULARIZE_FSGS) && !(opt->fsgs_distance > 0))

@@ -7,7 +7,8 @@
 #include "gaussvid/core/core.h"
 #include "gaussvid/splat/splat_train.h"
 
-/* CoR-GS's second field trains with the seed plus this (its own view order and splits). */
+/* CoR-GS's and SE-GS's second field trains with the seed plus this (its own view order and
+ * splits). */
 #define CORGS_SEED_OFFSET 7919
 
 static void free_images(gv_image *images, int n)
@@ -16,14 +17,33 @@ static void free_images(gv_image *images, int n)
     free(images);
 }
 
-/* Trains t (and with CoR-GS its partner field b, stepped together) to the end. */
-static int run(gv_splat_trainer *t, gv_splat_trainer *b, gv_splat_corgs *c, const char *label)
+static void report_two_fields(const gv_splat_trainer *t, const gv_splat_trainer *b,
+                              const gv_splat_corgs *c, const gv_splat_segs *segs,
+                              const long coprune[2])
+{
+    if (t->opt.regularize & GV_REGULARIZE_CORGS)
+        gv_info("CoR-GS co-pruning (within %g x extent): %ld and %ld Gaussians pruned",
+                t->opt.corgs_distance, coprune[0], coprune[1]);
+    gv_info("second field: %d Gaussians at the end; %ld pseudo views (weight %g)", b->params.n,
+            c->pseudo_views, c->weight);
+    if (segs)
+        gv_info("SE-GS: %d perturbations of the second field (every %d iterations), %ld Gaussians "
+                "perturbed in all, last noise ratio %.4f; noise scales: position %.3g %.3g %.3g, "
+                "opacity %.3g, log-scale %.3g %.3g %.3g", segs->perturbations, segs->interval,
+                segs->perturbed, segs->ratio, segs->noise_scale[0], segs->noise_scale[1],
+                segs->noise_scale[2], segs->noise_scale[3], segs->noise_scale[4],
+                segs->noise_scale[5], segs->noise_scale[6]);
+}
+
+/* Trains t (and with CoR-GS or SE-GS its partner field b, stepped together) to the end. */
+static int run(gv_splat_trainer *t, gv_splat_trainer *b, gv_splat_corgs *c, gv_splat_segs *segs,
+               const char *label)
 {
     gv_progress bar;
     long coprune[2] = {0, 0};
     if (label) gv_progress_start(&bar, label, t->opt.iterations);
     while (t->iteration < t->opt.iterations) {
-        if (b ? gv_splat_corgs_step(c, t, b, t->opt.corgs_distance, coprune) != 0
+        if (b ? gv_splat_corgs_step(c, t, b, t->opt.corgs_distance, coprune, segs) != 0
               : gv_splat_trainer_step(t) != 0)
             return -1;
         if (label && (t->iteration % 10 == 0 || t->iteration == t->opt.iterations))
@@ -31,10 +51,7 @@ static int run(gv_splat_trainer *t, gv_splat_trainer *b, gv_splat_corgs *c, cons
                                t->params.n, t->active_degree);
     }
     if (label) gv_progress_finish(&bar);
-    if (b)
-        gv_info("CoR-GS co-pruning (within %g x extent): %ld and %ld Gaussians pruned; the "
-                "second field ends with %d; %ld pseudo views (weight %g)", t->opt.corgs_distance,
-                coprune[0], coprune[1], b->params.n, c->pseudo_views, c->weight);
+    if (b) report_two_fields(t, b, c, segs, coprune);
     double per = 1000.0 / (t->iteration > 0 ? t->iteration : 1);
     gv_info("ms per iteration: render %.2f, loss %.2f, backward %.2f, densify %.2f, Adam %.2f",
             t->seconds[GV_PHASE_RENDER] * per, t->seconds[GV_PHASE_LOSS] * per,
@@ -69,9 +86,11 @@ int gv_splat_train_views(const gv_scene *scene, const int *views, int n_views,
     int loaded = 0, ok = -1;
     gv_splat_trainer t, partner; /* partner: CoR-GS's second field */
     gv_splat_corgs corgs_work;   /* its pseudo-view term */
+    gv_splat_segs segs;          /* SE-GS's perturbation of the second field */
     memset(&t, 0, sizeof t), memset(&partner, 0, sizeof partner);
-    memset(&corgs_work, 0, sizeof corgs_work);
-    int corgs = (opt->regularize & GV_REGULARIZE_CORGS) != 0;
+    memset(&corgs_work, 0, sizeof corgs_work), memset(&segs, 0, sizeof segs);
+    int two_fields = (opt->regularize & GV_REGULARIZE_TWO_FIELDS) != 0;
+    int with_segs = (opt->regularize & GV_REGULARIZE_SEGS) != 0;
     if (!cameras || !images) {
         gv_fail("%s: out of memory for %d views", scene->dir, n_views);
         goto done;
@@ -97,7 +116,7 @@ int gv_splat_train_views(const gv_scene *scene, const int *views, int n_views,
         gv_fail_context("%s", scene->dir);
         goto done;
     }
-    if (corgs) { /* the same views and points, its own randomness */
+    if (two_fields) { /* the same views and points, its own randomness */
         gv_splat_train_options second = *opt;
         second.seed = opt->seed + CORGS_SEED_OFFSET;
         corgs_work.weight = opt->corgs_pseudo_weight;
@@ -109,7 +128,13 @@ int gv_splat_train_views(const gv_scene *scene, const int *views, int n_views,
             goto done;
         }
     }
-    if (run(&t, corgs ? &partner : NULL, &corgs_work, opt->progress_label) != 0) {
+    if (with_segs && gv_splat_segs_init(&segs, n_views, cameras, opt->segs_interval,
+                                        opt->seed + 3 * CORGS_SEED_OFFSET) != 0) {
+        gv_fail_context("%s", scene->dir);
+        goto done;
+    }
+    if (run(&t, two_fields ? &partner : NULL, &corgs_work, with_segs ? &segs : NULL,
+            opt->progress_label) != 0) {
         gv_fail_context("%s", scene->dir);
         goto done;
     }
@@ -119,6 +144,7 @@ int gv_splat_train_views(const gv_scene *scene, const int *views, int n_views,
     ok = 0;
 done:
     gv_splat_trainer_free(&t), gv_splat_trainer_free(&partner), gv_splat_corgs_free(&corgs_work);
+    gv_splat_segs_free(&segs);
     if (images) free_images(images, loaded);
     free(cameras);
     return ok;

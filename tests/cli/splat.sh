@@ -73,6 +73,25 @@ check "fsgs reports its unpooling" grep -q "FSGS unpooling (proximity above 0.05
 check "corgs trains" test -s "$tmp/corgs.ply"
 check "corgs reports its co-pruning" grep -q "CoR-GS co-pruning (within 0.02 x extent): [0-9]* and [0-9]* Gaussians pruned" "$tmp/corgs.txt"
 check "corgs is another model" test -n "$(cmp "$tmp/lean.ply" "$tmp/corgs.ply")"
+# SE-GS with --segs-interval 40: the model is rendered at the pseudo views at 520, 560, 600
+# and 640 (before 700 - 40); the ring of 3 renders is full from 600: 2 perturbations. With
+# --segs-interval 1000 nothing is rendered: the two fields and the pseudo-view term alone.
+segs() { # OUT INTERVAL
+    "$gaussvid" splat train --scene "$scene" --interval 4 --iters 700 --seed 5 --threads 1 --out "$1" \
+        --regularize segs --segs-interval "$2"
+}
+segs "$tmp/segs1.ply" 40 > "$tmp/segs.txt" 2>&1
+check "segs trains" test -s "$tmp/segs1.ply"
+check "segs reports its perturbations" grep -q "SE-GS: 2 perturbations of the second field (every 40 iterations), [1-9][0-9]* Gaussians perturbed" "$tmp/segs.txt"
+check "segs does not co-prune" test -z "$(grep "CoR-GS co-pruning" "$tmp/segs.txt")"
+segs "$tmp/segs2.ply" 40 > /dev/null 2>&1
+check "segs, one thread: same seed, same model" cmp -s "$tmp/segs1.ply" "$tmp/segs2.ply"
+segs "$tmp/segs_none.ply" 1000 > "$tmp/segs_none.txt" 2>&1
+check "segs without a perturbation reports none" grep -q "SE-GS: 0 perturbations" "$tmp/segs_none.txt"
+check "the perturbations change the model" test -n "$(cmp "$tmp/segs1.ply" "$tmp/segs_none.ply")"
+train "$tmp/x.ply" --regularize segs --segs-interval 0 > /dev/null 2> "$tmp/err.txt"
+check "--segs-interval 0 exits 2" test $? -eq 2
+check "--segs-interval 0 explained in one line" test "$(cat "$tmp/err.txt")" = "gaussvid splat train: --segs-interval must be at least 1"
 
 # Eval: 12 frames, 3 of them training views; JSON means and per-frame list.
 "$gaussvid" splat eval --model "$tmp/a.ply" --scene "$scene" --interval 4 --json "$tmp/e.json" > "$tmp/eval.txt"

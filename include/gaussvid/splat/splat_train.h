@@ -234,8 +234,11 @@ const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode);
 
 /* Prior-free sparse-view regularisers (docs/SPLAT_TRAINING.md, "Sparse-view regularisers"),
  * a set of bits; none of them is the plain 3DGS of the reference. */
-enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0, GV_REGULARIZE_FSGS = 1 << 1, GV_REGULARIZE_CORGS = 1 << 2 };
-#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian, fsgs, corgs"
+enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0, GV_REGULARIZE_FSGS = 1 << 1, GV_REGULARIZE_CORGS = 1 << 2,
+       GV_REGULARIZE_SEGS = 1 << 3 };
+/* The regularisers that train a second field alongside the model. */
+#define GV_REGULARIZE_TWO_FIELDS (GV_REGULARIZE_CORGS | GV_REGULARIZE_SEGS)
+#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian, fsgs, corgs, segs"
 /* "none", or names separated by commas (each once) -> the set; -1 for anything else. */
 int gv_splat_regularize_parse(const char *list);
 /* The set as the parser reads it ("none", "dropgaussian", ...) into buf of size n. */
@@ -256,7 +259,9 @@ typedef struct {
     double fsgs_distance;       /* FSGS: unpool above this proximity score x extent (0.1) */
     double corgs_distance;      /* CoR-GS: prune without a counterpart within this x extent
                                  * (0.05) */
-    double corgs_pseudo_weight; /* CoR-GS: weight of the pseudo-view term (1; 0: off) */
+    double corgs_pseudo_weight; /* CoR-GS and SE-GS: weight of the pseudo-view term of the
+                                 * two fields (1; 0: off) */
+    int segs_interval;          /* SE-GS: iterations between the pseudo-view renders (500) */
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
@@ -349,11 +354,84 @@ int gv_splat_corgs_pseudo_grad(gv_splat_corgs *c, const gv_gaussians *g0, const 
                                double weight, gv_gaussians *grad0, gv_gaussians *grad1,
                                double *loss);
 void gv_splat_corgs_free(gv_splat_corgs *c);
-/* CoR-GS: one iteration of both trainers with the pseudo-view term after c->from, then, if
- * either densified, co-pruning at tau x a's extent; pruned[0] and pruned[1] count the
- * removed Gaussians of a and b. */
+/* ---- segs.c -----------------------------------------------------------------------------
+ * SE-GS's uncertainty-aware perturbation (Zhao et al., ICCV 2025): the model (Sigma) is
+ * rendered at GV_SEGS_VIEWS fixed pseudo views near the training cameras every interval
+ * iterations; the per-pixel spread of its last GV_SEGS_STACK renders marks where the views do
+ * not pin the scene down, and the second field's (Delta's) Gaussians covering those pixels
+ * get noise. The hyper-parameters are the release's (docs/SPLAT_TRAINING.md). */
+#define GV_SEGS_VIEWS 24          /* pseudo views watched (num_val) */
+#define GV_SEGS_STACK 3           /* renders kept per view (len_stack) */
+#define GV_SEGS_BOX 5             /* the uncertainty map is box-averaged over 5 x 5 pixels */
+#define GV_SEGS_TOP_SHARE 0.05    /* uncertain: the top 5 % of a view's pixels (reset_ratio) ... */
+#define GV_SEGS_MIN_STD 0.01      /* ... and above this (reset_thr) */
+#define GV_SEGS_NOISE_MAX 0.08    /* noise ratio, log-linear from this ... */
+#define GV_SEGS_NOISE_MIN 0.02    /* ... to this over the run */
+#define GV_SEGS_NEAR_DISTANCE 0.5 /* pseudo views within 0.5 x the closest two training cameras' */
+#define GV_SEGS_NEAR_DEGREES 15.0 /* distance and 15 degrees of a training camera */
+
+typedef struct {
+    gv_camera cameras[GV_SEGS_VIEWS];
+    gv_splat_view views[GV_SEGS_VIEWS];
+    float *renders[GV_SEGS_VIEWS][GV_SEGS_STACK]; /* the model's last renders, a ring */
+    int stored;                 /* renders stored per view so far */
+    long pixels;                /* the largest view's */
+    float *image, *map, *scratch, *dist2;
+    unsigned char *mark;
+    int mark_capacity;
+    gv_splat_renderer renderer;
+    int interval;
+    uint64_t seed;
+    double ratio;               /* the last noise ratio */
+    double noise_scale[13];     /* the last noise scales (position, opacity, scale, rotation) */
+    long perturbed;             /* Gaussians perturbed, summed over the perturbations */
+    int perturbations;
+} gv_splat_segs;
+
+/* The share t of the way from camera k to k + 1 (and from k + 1 back) that stays within
+ * GV_SEGS_NEAR_DISTANCE x the distance of the closest two cameras and GV_SEGS_NEAR_DEGREES
+ * of the nearer end (at most 0.5). */
+double gv_splat_segs_near_share(const gv_camera *cameras, int n_views, int k);
+/* Picks the pseudo views (gap i mod (n_views - 1), a uniform position within the near
+ * share of either end) and allocates the buffers. */
+int gv_splat_segs_init(gv_splat_segs *s, int n_views, const gv_camera *cameras, int interval,
+                       uint64_t seed);
+/* out[p] = the 5 x 5 box mean (zeros outside) of the mean over channels of the unbiased
+ * standard deviation of the k renders (HWC) at pixel p; scratch is width x height. */
+void gv_splat_segs_uncertainty(const float *const *renders, int k, int width, int height,
+                               float *scratch, float *out);
+/* max(the value at index floor(GV_SEGS_TOP_SHARE x pixels) of u sorted descending,
+ * GV_SEGS_MIN_STD); scratch holds pixels floats. */
+double gv_splat_segs_threshold(const float *u, long pixels, float *scratch);
+/* dist2[p] = squared distance from pixel p to the nearest pixel with u > threshold (exact;
+ * about 4 (W^2 + H^2) when there is none). */
+int gv_splat_segs_distance(const float *u, int width, int height, double threshold, float *dist2);
+/* mark[i] = 1 for each Gaussian with radius r > 0 whose centre's pixel is in the image at a
+ * squared distance below r (the release's test: within sqrt(r) pixels) from an uncertain
+ * pixel; returns how many were newly marked. */
+int gv_splat_segs_mark(const float *dist2, int width, int height, int n, const float *means2d,
+                       const int *radii, unsigned char *mark);
+/* The noise ratio at an iteration: log-linear from GV_SEGS_NOISE_MAX at the first
+ * perturbation (from + interval x GV_SEGS_STACK) to GV_SEGS_NOISE_MIN at iterations - interval. */
+double gv_splat_segs_noise_ratio(int iteration, int iterations, int from, int interval);
+/* Adds ratio x scale x N(0, 1) (normals at (seed, 13 i + j)) to the position, opacity logit,
+ * log-scales and the 6-D rotation (the first two rows of R(q), back by Gram-Schmidt) of the
+ * marked rows, scale the mean magnitude of that column over the field, at least 1 (for the
+ * position: extent); their Adam moments of those groups start from zero. Returns the count;
+ * scale_out (may be NULL) gets the 13 scales. */
+int gv_splat_segs_perturb(gv_gaussians *g, gv_splat_adam *adam, const unsigned char *mark,
+                          double ratio, double extent, uint64_t seed, double scale_out[13]);
+/* At iterations past the model's densify_from, before iterations - interval, multiples of
+ * interval: renders sigma at the pseudo views into the ring; once it is full, perturbs
+ * delta. */
+int gv_splat_segs_observe(gv_splat_segs *s, gv_splat_trainer *sigma, gv_splat_trainer *delta);
+void gv_splat_segs_free(gv_splat_segs *s);
+
+/* CoR-GS and SE-GS: one iteration of both trainers with the pseudo-view term after c->from;
+ * with corgs, if either densified, co-pruning at tau x a's extent (pruned[0] and pruned[1]
+ * count the removed Gaussians of a and b); with segs (segs not NULL), its perturbation of b. */
 int gv_splat_corgs_step(gv_splat_corgs *c, gv_splat_trainer *a, gv_splat_trainer *b, double tau,
-                        long *pruned);
+                        long *pruned, gv_splat_segs *segs);
 void gv_splat_trainer_free(gv_splat_trainer *t);
 /* Trains on the frames 0, n, 2n, ... (n = interval) of a scene and returns the model in
  * out (to be freed with gv_gaussians_free). */
