@@ -15,21 +15,15 @@
 # Usage: bash scene_colmap_phone.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup scene_colmap_phone "$1"
-LIB="$(cd "$(dirname "$0")/lib" && pwd)"
-cd "$T" || exit 1
-if ! command -v colmap >/dev/null || ! command -v ffmpeg >/dev/null; then
-    echo "scene_colmap_phone.sh: colmap or ffmpeg is not installed (scripts/setup.sh installs them): skipped"
-    exit 77
-fi
+source "$(dirname "$0")/lib/phone_capture.sh"
+phone_setup scene_colmap_phone.sh
 err_has() { if grep -qF -- "$1" "$T/err"; then ok; else bad "stderr lacks '$1': $(head -c 600 "$T/err")"; fi; }
 bytes() { du -sb "$@" | awk '{ s += $1 } END { print s }'; }
 
 expect 0 "synth" -- "$G" scene synth --seed 3 --frames 24 --texture-detail 1 --size 144x256 --out R --quiet --threads 2
 # The room's cameras under the phone's names (frame_00000.png is IMG_0001.JPG).
-awk '{ if (match($0, /frame_[0-9]+\.png$/)) { n = substr($0, RSTART + 6, 5) + 1; sub(/frame_[0-9]+\.png$/, sprintf("IMG_%04d.JPG", n)) } print }' \
-    R/sparse/0/images.txt >known_phone.txt
-awk '{ if (match($0, /frame_[0-9]+\.png$/)) { n = substr($0, RSTART + 6, 5) + 1; sub(/frame_[0-9]+\.png$/, sprintf("frame_%05d.jpg", n)) } print }' \
-    R/sparse/0/images.txt >known_video.txt
+known_cameras R/sparse/0/images.txt IMG_%04d.JPG >known_phone.txt
+known_cameras R/sparse/0/images.txt frame_%05d.jpg >known_video.txt
 mkdir -p phone
 # Photos 1-16 held one way (stored turned counter-clockwise, tag 6), 17-24 the other (tag 8).
 check "phone JPEGs: distorted, stored landscape" ffmpeg -nostdin -loglevel error -i R/images/frame_%05d.png \

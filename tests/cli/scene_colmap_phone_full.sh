@@ -10,19 +10,13 @@
 # Usage: bash scene_colmap_phone_full.sh /path/to/gaussvid   ($GV_TMP scratch)
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup scene_colmap_phone_full "$1"
-LIB="$(cd "$(dirname "$0")/lib" && pwd)"
-cd "$T" || exit 1
-if ! command -v colmap >/dev/null || ! command -v ffmpeg >/dev/null; then
-    echo "scene_colmap_phone_full.sh: colmap or ffmpeg is not installed (scripts/setup.sh installs them): skipped"
-    exit 77
-fi
+source "$(dirname "$0")/lib/phone_capture.sh"
+phone_setup scene_colmap_phone_full.sh
 
 expect 0 "synth at 1080x1920" -- "$G" scene synth --seed 3 --frames 12 --texture-detail 1 --size 1080x1920 --samples 1 \
     --out R --quiet --threads 2
-awk '{ if (match($0, /frame_[0-9]+\.png$/)) { n = substr($0, RSTART + 6, 5) + 1; sub(/frame_[0-9]+\.png$/, sprintf("IMG_%04d.JPG", n)) } print }' \
-    R/sparse/0/images.txt >known_phone.txt
-awk '{ if (match($0, /frame_[0-9]+\.png$/)) { n = substr($0, RSTART + 6, 5) + 1; sub(/frame_[0-9]+\.png$/, sprintf("frame_%05d.jpg", n)) } print }' \
-    R/sparse/0/images.txt >known_video.txt
+known_cameras R/sparse/0/images.txt IMG_%04d.JPG >known_phone.txt
+known_cameras R/sparse/0/images.txt frame_%05d.jpg >known_video.txt
 mkdir -p phone
 check "phone JPEGs: 1920x1080 stored, distorted" ffmpeg -nostdin -loglevel error -i R/images/frame_%05d.png \
     -vf "lenscorrection=k1=-0.15:k2=0.02,transpose=2" -q:v 2 -start_number 1 phone/IMG_%04d.JPG
