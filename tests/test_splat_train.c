@@ -364,6 +364,71 @@ static void test_refinement(const tiny_scene *s)
     gv_gaussians_free(&start);
 }
 
+/* Resolution scheduling (src/splat/resolution.c) in the loop: each iteration renders at the
+ * schedule's factor (the renderer's view is 48x32 / factor), the level's targets are the box
+ * filter of the views, built once; the run still fits the views (floor as the plain run's);
+ * two runs with one thread give the same bytes and a different model from the plain run; a
+ * view too small for the factor is refused with its name. */
+static void test_resolution_schedule(const tiny_scene *s)
+{
+    gv_splat_train_options o;
+    short_options(&o, 200);
+    o.resolution_start = 4; /* 1/4 for 1..50, 1/2 for 51..100, then full */
+    gv_gaussians a[2];
+    double before = 0;
+    for (int run = 0; run < 2; run++) {
+        gv_splat_trainer t;
+        int ok = gv_splat_trainer_init(&t, &o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N,
+                                       s->points, NULL), sizes_right = 1;
+        if (run == 0) before = train_psnr(&t.params, s);
+        for (int it = 1; it <= o.iterations && ok == 0; it++) {
+            ok = gv_splat_trainer_step(&t);
+            int f = it <= 50 ? 4 : it <= 100 ? 2 : 1;
+            sizes_right &= t.factor == f && t.renderer.view.width == WIDTH / f &&
+                           t.renderer.view.height == HEIGHT / f;
+        }
+        CHECK(ok == 0 && sizes_right);
+        if (run == 0) {
+            const gv_splat_resolution_level *l, *again;
+            CHECK(gv_splat_trainer_level(&t, 4, &l) == 0 && gv_splat_trainer_level(&t, 4, &again) == 0);
+            CHECK(l == again && l->factor == 4 && l->views[3].width == WIDTH / 4);
+            float full[WIDTH * HEIGHT * 3], boxed[WIDTH / 4 * HEIGHT / 4 * 3];
+            gv_image_to_float(&s->images[3], full);
+            gv_splat_box_downsample(full, WIDTH, HEIGHT, 4, boxed);
+            CHECK(!memcmp(l->targets[3], boxed, sizeof boxed));
+        }
+        a[run] = t.params;
+        memset(&t.params, 0, sizeof t.params);
+        gv_splat_trainer_free(&t);
+    }
+    double after = train_psnr(&a[0], s);
+    fprintf(stderr, "resolution schedule: training views %.1f dB -> %.1f dB\n", before, after);
+    CHECK(after > before + 7 && after > 25);
+    CHECK(same_model(&a[0], &a[1]));
+    gv_gaussians plain;
+    gv_splat_densify_counts counts;
+    o.resolution_start = 0;
+    train_short(s, &o, &plain, &counts);
+    CHECK(!same_model(&a[0], &plain));
+    gv_gaussians_free(&a[0]), gv_gaussians_free(&a[1]), gv_gaussians_free(&plain);
+
+    gv_camera small[2] = {s->cams[0], s->cams[1]};
+    gv_image images[2];
+    for (int v = 0; v < 2; v++) {
+        small[v].width = 7, small[v].height = 5;
+        CHECK(gv_image_alloc(&images[v], 7, 5, 3) == 0);
+    }
+    o.resolution_start = 8;
+    gv_splat_trainer t;
+    CHECK(gv_splat_trainer_init(&t, &o, 2, small, images, extent_of(s), TRUE_N, s->points, NULL) == 0);
+    CHECK_FAILS_WITH(gv_splat_trainer_step(&t), "view0.png: 7x5 is too small");
+    gv_splat_trainer_free(&t);
+    o.resolution_start = 3;
+    CHECK_FAILS_WITH(gv_splat_trainer_init(&t, &o, 2, small, images, extent_of(s), TRUE_N, s->points, NULL),
+                     "expected 2, 4 or 8");
+    for (int v = 0; v < 2; v++) gv_image_free(&images[v]);
+}
+
 int main(void)
 {
     tiny_scene s;
@@ -377,6 +442,7 @@ int main(void)
     test_training_converges(&s);
     test_training_mcmc(&s);
     test_lean(&s);
+    test_resolution_schedule(&s);
     omp_set_num_threads(threads < 2 ? 2 : threads);
     test_deterministic(&s, GV_DENSIFY_LEAN);
     test_deterministic(&s, GV_DENSIFY_REFERENCE);

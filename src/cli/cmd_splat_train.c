@@ -31,7 +31,8 @@ int cmd_splat_train(int argc, char **argv)
     double grad_threshold = 0, per_pixel = 0, regularizer = 0.01, fsgs_distance = 0.1,
            corgs_distance = 0.05, corgs_pseudo = 1.0;
     const char *densify = "lean", *regularize = "none";
-    int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0, segs_interval = 500;
+    int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0, segs_interval = 500, resolution_start = 0;
+    double resolution_full_at = 0; /* 0: not given (the schedule's 0.5) */
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &scene_dir, "DIR", "scene folder (COLMAP sparse/0 or transforms.json)", 1},
         {"out", GV_FLAG_STRING, &out, "FILE.ply", "the trained model (3DGS .ply)", 1},
@@ -54,6 +55,8 @@ int cmd_splat_train(int argc, char **argv)
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
         {"regularizer", GV_FLAG_DOUBLE, &regularizer, "X", "mcmc: weight of the opacity and scale L1 terms (default 0.01)", 0},
         {"grad-threshold", GV_FLAG_DOUBLE, &grad_threshold, "X", "lean and reference: densify threshold (default 0.0004 and 0.0002)", 0},
+        {"resolution-schedule", GV_FLAG_INT, &resolution_start, "K", "train the first iterations at 1/K of the size, K = 2, 4 or 8, doubling to full (default: off)", 0},
+        {"resolution-full-at", GV_FLAG_DOUBLE, &resolution_full_at, "F", "with --resolution-schedule: full resolution from this share of the iterations (default 0.5)", 0},
     };
     const gv_command_spec spec = {
         "splat train", NULL, "train 3D Gaussian Splatting on the sparse split of a scene",
@@ -93,6 +96,11 @@ int cmd_splat_train(int argc, char **argv)
         "             corgs too, co-pruning as well (the SE-GS release's configuration)\n"
         "--iters N stops the schedule early (nothing is rescaled; the drop share\n"
         "follows --iters).\n"
+        "Resolution scheduling (--resolution-schedule K, after DashGaussian): iterations\n"
+        "up to F x N (F = --resolution-full-at, default 0.5) render the training views at\n"
+        "1/K, 1/(K/2), ... in equal steps (cameras with the intrinsics divided, targets\n"
+        "box-filtered), then at full size: K = 4, 8000 iterations: 1/4 to 2000, 1/2 to\n"
+        "4000, full after. Off by default.\n"
         "The last line gives the Gaussian count and the Gaussians per training pixel.\n"
         "Same seed, inputs and --threads give the same model. See docs/SPLAT_TRAINING.md.",
         flags, sizeof flags / sizeof flags[0], 0, 0};
@@ -136,6 +144,19 @@ int cmd_splat_train(int argc, char **argv)
                         "must be non-negative\n");
         return 2;
     }
+    if (resolution_full_at != 0 && resolution_start == 0) {
+        fprintf(stderr, "gaussvid splat train: --resolution-full-at needs --resolution-schedule\n");
+        return 2;
+    }
+    if (resolution_full_at == 0) resolution_full_at = 0.5;
+    if ((resolution_start != 0 && resolution_start != 2 && resolution_start != 4 && resolution_start != 8) ||
+        !(resolution_full_at > 0 && resolution_full_at <= 1)) {
+        fprintf(stderr, "gaussvid splat train: --resolution-schedule takes 2, 4 or 8 and "
+                        "--resolution-full-at a share in (0, 1]\n");
+        return 2;
+    }
+    opt.resolution_start = resolution_start;
+    opt.resolution_full_at = resolution_full_at;
     opt.densify_mode = (gv_splat_densify_mode)mode;
     if ((opt.regularize = gv_splat_regularize_parse(regularize)) < 0) {
         fprintf(stderr, "gaussvid splat train: --regularize %s: expected " GV_REGULARIZE_NAMES "\n", regularize);

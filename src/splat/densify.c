@@ -47,16 +47,24 @@ void gv_splat_densify_stats_free(gv_splat_densify_stats *s)
     memset(s, 0, sizeof *s);
 }
 
-void gv_splat_densify_accumulate(gv_splat_densify_stats *s, int n_visible, const int *visible,
-                                 const float *densify_grad, const int *radii)
+void gv_splat_densify_accumulate_scaled(gv_splat_densify_stats *s, int n_visible,
+                                        const int *visible, const float *densify_grad,
+                                        const int *radii, int radius_scale)
 {
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < n_visible; k++) {
         int i = visible[k];
         s->grad_accum[i] += densify_grad[i];
         s->denom[i] += 1;
-        if (radii[i] > s->max_radii[i]) s->max_radii[i] = radii[i];
+        int radius = radii[i] * radius_scale;
+        if (radius > s->max_radii[i]) s->max_radii[i] = radius;
     }
+}
+
+void gv_splat_densify_accumulate(gv_splat_densify_stats *s, int n_visible, const int *visible,
+                                 const float *densify_grad, const int *radii)
+{
+    gv_splat_densify_accumulate_scaled(s, n_visible, visible, densify_grad, radii, 1);
 }
 
 /* ---- rows of a set of Gaussians ------------------------------------------------------- */

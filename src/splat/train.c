@@ -58,6 +58,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     opt->corgs_distance = 0.05;
     opt->corgs_pseudo_weight = 1.0;
     opt->segs_interval = 500; /* SE-GS's release, noise_interval */
+    opt->resolution_full_at = 0.5;
 }
 
 double gv_splat_densify_threshold(const gv_splat_train_options *opt)
@@ -144,6 +145,7 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
         if (!(opt->view_weights[i] >= 0) || !isfinite(opt->view_weights[i]))
             return gv_fail("train: view %d has weight %g; weights must be finite and >= 0", i, opt->view_weights[i]);
     if (opt->iterations < 1) return gv_fail("train: %d iterations; need at least 1", opt->iterations);
+    if (gv_splat_resolution_check(opt->resolution_start, opt->resolution_full_at) != 0) return -1;
     if ((opt->regularize & GV_REGULARIZE_FSGS) && opt->densify_mode == GV_DENSIFY_MCMC)
         return gv_fail("train: fsgs unpools at the densification steps of lean or reference density control, not mcmc");
     if ((opt->regularize & GV_REGULARIZE_CORGS) && opt->densify_mode == GV_DENSIFY_MCMC)
@@ -248,6 +250,7 @@ int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt
     t->densify_grad = calloc((size_t)t->params.capacity, sizeof(float));
     if (!t->densify_grad || grow_all_rows(t) != 0) goto out_of_memory;
     t->order_pos = n_views; /* empty: the first step shuffles */
+    t->factor = 1;
     if (opt->initial) t->active_degree = opt->sh_degree; /* a trained model has every degree */
     gv_rng_init(&t->view_rng, stream_seed(opt->seed, STREAM_VIEWS));
     gv_rng_init(&t->bg_rng, stream_seed(opt->seed, STREAM_BACKGROUND));
@@ -269,6 +272,7 @@ void gv_splat_trainer_free(gv_splat_trainer *t)
     gv_splat_loss_free(&t->loss_work);
     free(t->views), free(t->order), free(t->render), free(t->target), free(t->d_render);
     free(t->densify_grad), free(t->all_rows), free(t->drop_scale);
+    gv_splat_resolution_levels_free(t->levels, 3, t->n_views);
     memset(t, 0, sizeof *t);
 }
 
@@ -301,8 +305,17 @@ static int density_control(gv_splat_trainer *t)
     int it = t->iteration, done = 0;
     if (it >= s->densify_until || it >= t->opt.iterations) return 0;
     gv_splat_renderer *r = &t->renderer;
-    gv_splat_densify_accumulate(&t->stats, r->tiles.n_visible, r->tiles.visible,
-                                t->densify_grad, r->radii);
+    /* At 1/f of the size (resolution scheduling) the statistic needs no rescaling: it is the
+     * gradient in NDC units, pixels x (W/2, H/2) of the render's own size, and for the same
+     * residual image that is independent of the resolution (a Gaussian of sigma pixels at
+     * full size covers sigma^2 / f^2 pixels at 1/f, each weighing f^2 more in the mean loss,
+     * its profile's slope per pixel f times steeper, and W/2 f times smaller: f^0). What
+     * differs is the residual itself: the box-filtered target has no detail finer than the
+     * level, so the control grows Gaussians only for what the level shows, which is the
+     * point of the schedule. So the lean and reference thresholds stay. The radii are
+     * counted in full-resolution pixels so that max_screen_size keeps its meaning. */
+    gv_splat_densify_accumulate_scaled(&t->stats, r->tiles.n_visible, r->tiles.visible,
+                                       t->densify_grad, r->radii, t->factor);
     if (it > s->densify_from && it % s->densify_interval == 0) {
         gv_splat_densify_params p = t->opt.densify;
         p.prune_big = it > s->opacity_reset_interval; /* size_threshold given after 3000 */
@@ -420,6 +433,14 @@ int gv_splat_trainer_forward_backward(gv_splat_trainer *t)
         t->active_degree++;
     int v = next_view(t);
     const gv_splat_view *view = &t->views[v];
+    const gv_splat_resolution_level *level = NULL; /* resolution scheduling: a smaller view */
+    t->factor = gv_splat_resolution_factor(it, t->opt.iterations, t->opt.resolution_start,
+                                           t->opt.resolution_full_at);
+    if (t->factor > 1) {
+        if (gv_splat_trainer_level(t, t->factor, &level) != 0)
+            return gv_fail_context("train: iteration %d", it);
+        view = &level->views[v];
+    }
     float bg[3];
     background(t, bg);
 
@@ -436,9 +457,11 @@ int gv_splat_trainer_forward_backward(gv_splat_trainer *t)
                                        scale, t->render))
         return gv_fail_context("train: iteration %d", it);
     double t1 = gv_now();
-    gv_image_to_float(&t->images[v], t->target);
+    const float *target = t->target;
+    if (level) target = level->targets[v];
+    else gv_image_to_float(&t->images[v], t->target);
     gv_splat_loss_value loss;
-    if (gv_splat_loss(&t->loss_work, t->render, t->target, view->width, view->height,
+    if (gv_splat_loss(&t->loss_work, t->render, target, view->width, view->height,
                       t->opt.lambda_dssim, t->d_render, &loss) != 0)
         return gv_fail_context("train: iteration %d (view %s)", it, t->cameras[v].name);
     if (t->opt.view_weights) { /* a down-weighted view: its loss and gradient scaled */

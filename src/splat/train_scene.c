@@ -17,6 +17,23 @@ static void free_images(gv_image *images, int n)
     free(images);
 }
 
+/* The summary of a resolution schedule: "1/4 from iteration 1, 1/2 from 2001, full from 4001". */
+static void print_resolution_schedule(const gv_splat_train_options *o)
+{
+    char steps[200] = "";
+    int used = 0, previous = 0;
+    for (int it = 1; it <= o->iterations && used < (int)sizeof steps - 40; it++) {
+        int f = gv_splat_resolution_factor(it, o->iterations, o->resolution_start, o->resolution_full_at);
+        if (f == previous) continue;
+        char what[16];
+        snprintf(what, sizeof what, f > 1 ? "1/%d" : "full", f);
+        used += snprintf(steps + used, sizeof steps - (size_t)used, "%s%s from %s%d",
+                         previous ? ", " : "", what, previous ? "" : "iteration ", it);
+        previous = f;
+    }
+    gv_info("resolution schedule: %s (box-filtered views, intrinsics divided)", steps);
+}
+
 static void report_two_fields(const gv_splat_trainer *t, const gv_splat_trainer *b,
                               const gv_splat_corgs *c, const gv_splat_segs *segs,
                               const long coprune[2])
@@ -47,8 +64,9 @@ static int run(gv_splat_trainer *t, gv_splat_trainer *b, gv_splat_corgs *c, gv_s
               : gv_splat_trainer_step(t) != 0)
             return -1;
         if (label && (t->iteration % 10 == 0 || t->iteration == t->opt.iterations))
-            gv_progress_update(&bar, t->iteration, "loss %.4f  %d Gaussians  SH %d", t->ema_loss,
-                               t->params.n, t->active_degree);
+            gv_progress_update(&bar, t->iteration, "loss %.4f  %d Gaussians  SH %d%s", t->ema_loss,
+                               t->params.n, t->active_degree, t->factor == 2 ? "  at 1/2"
+                               : t->factor == 4 ? "  at 1/4" : t->factor == 8 ? "  at 1/8" : "");
     }
     if (label) gv_progress_finish(&bar);
     if (b) report_two_fields(t, b, c, segs, coprune);
@@ -64,6 +82,7 @@ static int run(gv_splat_trainer *t, gv_splat_trainer *b, gv_splat_corgs *c, gv_s
         gv_info("%s density control (threshold %g): %d cloned, %d split, %d pruned",
                 gv_splat_densify_mode_name(t->opt.densify_mode), t->opt.densify.grad_threshold,
                 t->densified.cloned, t->densified.split, t->densified.pruned);
+    if (t->opt.resolution_start > 1) print_resolution_schedule(&t->opt);
     char names[64];
     gv_splat_regularize_name(t->opt.regularize, names, sizeof names);
     gv_info("sparse-view regularisers: %s", names);

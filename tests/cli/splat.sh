@@ -93,6 +93,27 @@ train "$tmp/x.ply" --regularize segs --segs-interval 0 > /dev/null 2> "$tmp/err.
 check "--segs-interval 0 exits 2" test $? -eq 2
 check "--segs-interval 0 explained in one line" test "$(cat "$tmp/err.txt")" = "gaussvid splat train: --segs-interval must be at least 1"
 
+# Resolution scheduling: 48x32 at 1/4 then 1/2 for the first 30 of 60 iterations; the summary
+# names the steps; the same seed gives the same bytes, another model than without it; bad
+# factors and --resolution-full-at alone are usage errors.
+"$gaussvid" splat train --scene "$scene" --interval 4 --iters 60 --seed 5 --threads 2 --out "$tmp/res1.ply" \
+    --resolution-schedule 4 > "$tmp/res.txt" 2>&1
+check "--resolution-schedule trains" test -s "$tmp/res1.ply"
+check "--resolution-schedule names its steps" \
+    grep -q "resolution schedule: 1/4 from iteration 1, 1/2 from 16, full from 31" "$tmp/res.txt"
+train "$tmp/res2.ply" --resolution-schedule 4 > /dev/null 2>&1
+check "--resolution-schedule: same seed, same model" cmp -s "$tmp/res1.ply" "$tmp/res2.ply"
+check "--resolution-schedule is another model" test -n "$(cmp "$tmp/a.ply" "$tmp/res1.ply")"
+"$gaussvid" splat train --scene "$scene" --interval 4 --iters 60 --threads 2 --out "$tmp/res3.ply" \
+    --resolution-schedule 2 --resolution-full-at 1 > "$tmp/res3.txt" 2>&1
+check "--resolution-full-at 1: 1/2 to the end" grep -q "resolution schedule: 1/2 from iteration 1 (" "$tmp/res3.txt"
+for bad in "--resolution-schedule 3" "--resolution-schedule 16" "--resolution-full-at 0.5" \
+           "--resolution-schedule 4 --resolution-full-at 1.5"; do
+    train "$tmp/y.ply" $bad > /dev/null 2> "$tmp/err.txt"
+    check "'$bad' exits 2" test $? -eq 2
+done
+check "bad resolution schedule: no model" test ! -e "$tmp/y.ply"
+
 # Eval: 12 frames, 3 of them training views; JSON means and per-frame list.
 "$gaussvid" splat eval --model "$tmp/a.ply" --scene "$scene" --interval 4 --json "$tmp/e.json" > "$tmp/eval.txt"
 check "eval exits 0" test $? -eq 0

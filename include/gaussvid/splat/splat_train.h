@@ -133,6 +133,11 @@ void gv_splat_densify_stats_clear(gv_splat_densify_stats *s, int n);
 /* add_densification_stats for the visible Gaussians of one view. */
 void gv_splat_densify_accumulate(gv_splat_densify_stats *s, int n_visible, const int *visible,
                                  const float *densify_grad, const int *radii);
+/* The same for a render at 1/radius_scale of the full size: the radii are counted in full
+ * resolution pixels (radius x radius_scale), so max_screen_size keeps its meaning. */
+void gv_splat_densify_accumulate_scaled(gv_splat_densify_stats *s, int n_visible,
+                                        const int *visible, const float *densify_grad,
+                                        const int *radii, int radius_scale);
 /* densify_and_prune: clone, then split (2 children sampled from the Gaussian with rng,
  * scales / 1.6, parent removed), then prune; the Adam moments follow every row (new rows
  * zero), and the statistics are zeroed. counts may be NULL. */
@@ -205,6 +210,32 @@ int gv_splat_fsgs_unpool(gv_gaussians *g, gv_splat_adam *adam, double threshold,
 int gv_splat_corgs_coprune(gv_gaussians *a, gv_splat_adam *adam_a, gv_gaussians *b,
                            gv_splat_adam *adam_b, double tau, int *pruned_a, int *pruned_b);
 
+/* ---- resolution.c -----------------------------------------------------------------------
+ * Resolution scheduling (docs/SPLAT_TRAINING.md, "Resolution scheduling"; the idea of
+ * DashGaussian, CVPR 2025): the first iterations train on the views at 1/start of their size
+ * (cameras with every intrinsic divided by the factor, box-filtered targets), the factor
+ * halving at evenly spaced steps until full resolution. */
+#define GV_RESOLUTION_MAX_FACTOR 8
+/* The downsample factor of iteration (1 .. iterations): with start 2, 4 or 8 (s = 1, 2, 3
+ * halvings) and c = round(full_at x iterations), iteration i <= c trains at
+ * start / 2^floor((i - 1) s / c), later ones at 1; start 0 or 1 (off) always gives 1. */
+int gv_splat_resolution_factor(int iteration, int iterations, int start, double full_at);
+/* Fails unless start is 0, 1, 2, 4 or 8 and (with start > 1) full_at is in (0, 1]. */
+int gv_splat_resolution_check(int start, double full_at);
+/* out (floor(width / f) x floor(height / f) x 3, HWC) = the mean of each f x f block of in
+ * (width x height x 3); the last width mod f columns and height mod f rows are left out. */
+void gv_splat_box_downsample(const float *in, int width, int height, int f, float *out);
+/* The camera cam seen at 1/f: the same pose, size floor(W / f) x floor(H / f), fx, fy, cx, cy
+ * divided by f (its pixel (i, j) is the f x f block of cam's pixels from (i f, j f)). */
+void gv_camera_downsampled(const gv_camera *cam, int f, gv_camera *out);
+/* One level of a training run: the training views at 1/factor and their targets. */
+typedef struct {
+    int factor;                 /* 0 until built */
+    gv_splat_view *views;       /* n_views */
+    float **targets;            /* n_views box-filtered views, HWC floats in [0, 1] */
+} gv_splat_resolution_level;
+void gv_splat_resolution_levels_free(gv_splat_resolution_level *levels, int n_levels, int n_views);
+
 /* ---- train.c ----------------------------------------------------------------------------
  * The loop of 3DGS train.py (section 14.1). Iteration numbers start at 1. */
 typedef enum { GV_BG_BLACK, GV_BG_WHITE, GV_BG_RANDOM } gv_splat_background;
@@ -273,6 +304,10 @@ typedef struct {
     /* The loss of view i (and its gradient) is scaled by view_weights[i]: down-weighted
      * supervision by restored frames (NULL: every view 1). Borrowed, n_views long. */
     const float *view_weights;
+    /* Resolution scheduling (resolution.c): 0 (off, the reference) or the first iterations'
+     * downsample factor 2, 4 or 8; full resolution from resolution_full_at x iterations. */
+    int resolution_start;
+    double resolution_full_at;  /* 0.5 */
 } gv_splat_train_options;
 
 enum { GV_PHASE_RENDER, GV_PHASE_LOSS, GV_PHASE_BACKWARD, GV_PHASE_DENSIFY, GV_PHASE_ADAM,
@@ -306,6 +341,8 @@ typedef struct {
     gv_splat_densify_counts densified; /* totals (lean and reference) */
     long relocated, added;      /* totals (MCMC mode) */
     double seconds[GV_PHASES];  /* time spent per phase */
+    gv_splat_resolution_level levels[3]; /* 1/2, 1/4, 1/8: built when first used */
+    int factor;                 /* this iteration's downsample factor (1: full resolution) */
 } gv_splat_trainer;
 
 /* The reference's values (sections 13-14) and the values above. */
@@ -433,6 +470,9 @@ void gv_splat_segs_free(gv_splat_segs *s);
 int gv_splat_corgs_step(gv_splat_corgs *c, gv_splat_trainer *a, gv_splat_trainer *b, double tau,
                         long *pruned, gv_splat_segs *segs);
 void gv_splat_trainer_free(gv_splat_trainer *t);
+/* The views and targets of t's level `factor` (2, 4 or 8), box-filtered from t's images on
+ * the first call and kept until gv_splat_trainer_free (resolution.c). */
+int gv_splat_trainer_level(gv_splat_trainer *t, int factor, const gv_splat_resolution_level **out);
 /* Trains on the frames 0, n, 2n, ... (n = interval) of a scene and returns the model in
  * out (to be freed with gv_gaussians_free). */
 int gv_splat_train(const gv_scene *scene, int interval, const gv_splat_train_options *opt,
