@@ -429,11 +429,23 @@ static void test_frame_lists(const char *html)
     CHECK(table_rows(run, "<table class=\"worst\">", rows, 8) == 3 && rows[0] == 3 && rows[1] == 1 && rows[2] == 2);
     CHECK(strstr(run, "<tr data-frame=\"3\"><td>r3</td><td>3</td><td>24.00</td><td>24.75</td><td>25.00</td></tr>") != NULL);
     CHECK(strstr(run, "<tr data-frame=\"2\"><td>r2</td><td>2</td><td>30.00</td><td>28.50</td><td>&ndash;</td></tr>") != NULL);
-    CHECK(table_rows(run, "<table class=\"changes\">", rows, 8) == 3 && rows[0] == 2 && rows[1] == 3 && rows[2] == 1);
-    CHECK(strstr(run, "<td>-1.50</td>") != NULL && strstr(run, "<td>+0.75</td>") != NULL);
     CHECK(strstr(run, "<figcaption>worst: r2 (frame 2)</figcaption>") != NULL);
+    /* the run decided not to restore (its gate closed): no table of the restorer's changes */
+    const char *changes = strstr(run, "Biggest changes"), *end = strstr(run, "</section>");
+    CHECK(end != NULL && (changes == NULL || changes > end));
 
     static char text[8192];
+    snprintf(text, sizeof text, METRICS, dir, dir, dir, dir);
+    REQUIRE(replace_once(text, sizeof text, "\"restoration\": {\"ran\": false, \"why\": \"the gate is <closed> (-0.12 dB)\"}",
+                         "\"restoration\": {\"ran\": true, \"why\": null}") == 0);
+    write_metrics(text);
+    REQUIRE(gv_report_write_html(dir) == 0);
+    char *restored = read_report();
+    REQUIRE(restored != NULL);
+    CHECK(table_rows(restored, "<table class=\"changes\">", rows, 8) == 3 && rows[0] == 2 && rows[1] == 3 && rows[2] == 1);
+    CHECK(strstr(restored, "<td>-1.50</td>") != NULL && strstr(restored, "<td>+0.75</td>") != NULL);
+    free(restored);
+
     snprintf(text, sizeof text, METRICS, dir, dir, dir, dir);
     REQUIRE(replace_once(text, sizeof text, "{\"frame\": 2, \"images\"", "{\"frame\": 2, \"name\": \"IMG <2>.jpg\", \"images\"") == 0);
     REQUIRE(replace_once(text, sizeof text, "\"refined\": {\"psnr\": 28.25", "\"refined\": {\"psnr\": 20.5") == 0);

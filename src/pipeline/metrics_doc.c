@@ -248,8 +248,7 @@ static void plan_decisions(pipeline_run *r)
     }
     cJSON_DeleteItemFromObject(d, "restore_with");
     cJSON_AddStringToObject(d, "restore_with", gv_restore_with_name(mode));
-    char why[700];
-    const char *adapt_why = r->adapt ? NULL : r->no_adapt[0] ? (snprintf(why, sizeof why, "cannot run here: %s", r->no_adapt), why)
+    const char *adapt_why = r->adapt ? NULL : r->no_adapt[0] ? r->no_adapt
                             : mode == GV_RESTORE_ADAPTED ? "the checkpoint is adapted already (a scene checkpoint): its gate decides"
                             : mode == GV_RESTORE_CHECKPOINT ? "--restore-with checkpoint"
                                                             : "--no-restore";

@@ -225,8 +225,8 @@ int pipeline_restore(pipeline_run *r)
     pipeline_decision(r, "restoration", decision, decision ? NULL : why);
     if (decision == 0) { /* not run for nothing: the renders pass through */
         gv_restorer_free(&net);
-        snprintf(r->summary, sizeof r->summary, "skipped: %s%s%s%s; the restored frames are the renders", why,
-                 r->no_adapt[0] ? " (" : "", r->no_adapt, r->no_adapt[0] ? ")" : "");
+        snprintf(r->summary, sizeof r->summary, "skipped: %s%s%s; the restored frames are the renders", why,
+                 r->no_adapt[0] ? " because " : "", r->no_adapt);
         return pipeline_copy_frames(r, "render", "restored");
     }
     char clips_dir[4200], restored_dir[4200];

@@ -92,6 +92,12 @@ void report_consistency_line(const report_run *run, char *out, size_t size);
 int report_metrics_read(const char *path, report_metrics *m);
 void report_metrics_free(report_metrics *m);
 
+/* Whether the run decided not to restore (its restored frames are copies of the renders). */
+static inline int report_restoration_skipped(const report_run *run)
+{
+    return run->decisions[DECISION_RESTORATION].present && !run->decisions[DECISION_RESTORATION].ran;
+}
+
 /* ---- a growable text ------------------------------------------------------------------ */
 typedef struct {
     char *data;

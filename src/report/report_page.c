@@ -43,7 +43,8 @@ static void restorer_table(report_text *t, const report_restorer *r, const char 
     text_escaped(t, r->kind[0] ? r->kind : "(unknown)");
     /* reconstruct --adapt: the document's restorer is the base, adapted once per n */
     int per_n = !strcmp(r->kind, "scene") && !r->gate[0];
-    text_append(t, per_n ? " (the checkpoint above, adapted to this scene at each n from its own training views)"
+    text_append(t, per_n ? " (the checkpoint above, adapted to this scene at each n where it has the views for it: "
+                           "see each n's decisions)"
                    : !strcmp(r->kind, "scene") ? " (adapted to this scene from its own training views)"
                    : !strcmp(r->kind, "cross-scene") ? " (trained on other scenes, used as released)" : "");
     text_append(t, "</td></tr>\n<tr><th>gate</th><td>");
@@ -121,7 +122,9 @@ static void link_if_present(report_text *t, const char *dir, const report_run *r
 int report_run_model(const char *dir, const report_run *run, char *path, size_t size, const char **which)
 {
     static const char *const models[2] = {"refined", "sparse"};
-    for (int k = 0; k < 2; k++) {
+    /* A skipped refinement leaves a copy of the sparse model as refined.splat: name it sparse. */
+    const report_decision *refinement = &run->decisions[DECISION_REFINEMENT];
+    for (int k = refinement->present && !refinement->ran; k < 2; k++) {
         char rel[64];
         snprintf(rel, sizeof rel, "n%d/%s.splat", run->interval, models[k]);
         if (gv_path_join(path, size, dir, rel) != 0) return 0;

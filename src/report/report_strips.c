@@ -55,7 +55,7 @@ int report_pick_frames(const char *dir, const report_run *run, int picked[2], co
             if (pass == 0 && f->score[MODEL_SPARSE].present && f->score[MODEL_RESTORED].present)
                 v = f->score[MODEL_RESTORED].psnr - f->score[MODEL_SPARSE].psnr;
             else if (pass == 1 && f->score[MODEL_SPARSE].present) v = f->score[MODEL_SPARSE].psnr;
-            else if (pass == 2) {
+            else if (pass == 2 && !report_restoration_skipped(run)) {
                 if (report_restorer_change(dir, f, &v) != 0) return -1;
                 if (v < 0) continue;
                 v = -v; /* "worst" here is the largest change: listed first, as the others */
@@ -82,7 +82,8 @@ int report_pick_frames(const char *dir, const report_run *run, int picked[2], co
     if (*worst < 0 && run->n_frames > 0) {
         *worst = 0;
         *best = run->n_frames - 1;
-        *rule = "the first and last frames of the path (nothing restored yet)";
+        *rule = report_restoration_skipped(run) ? "the first and last frames of the path (restoration was skipped)"
+                                                : "the first and last frames of the path (nothing restored yet)";
         labels[0] = "first";
         labels[1] = "last";
     }

@@ -67,11 +67,26 @@ void report_consistency_line(const report_run *run, char *out, size_t size)
              "sparse %s, restored %s, refined %s dB", v[0], v[1], v[2]);
 }
 
+/* What the run decided, one line (the gate alone in a file from before decisions were kept). */
+static void decision_lines(FILE *out, const report_run *run)
+{
+    const char *gate = run->restorer.present ? run->restorer.gate : "";
+    char decisions[4096];
+    report_decisions_text(run, decisions, sizeof decisions);
+    if (decisions[0]) fprintf(out, "  decided: %s\n", decisions);
+    else if (!strcmp(gate, "closed"))
+        fprintf(out, "  the adaptation's gate is closed (its held-back views did not gain): the renders were kept\n");
+    else if (!strcmp(gate, "open"))
+        fprintf(out, "  the adaptation's gate is open (its held-back views gained): the renders were restored\n");
+}
+
 static void run_summary(FILE *out, const char *dir, const report_run *run)
 {
     static const char *const labels[N_MODELS] = {"sparse 3DGS", "restored", "refined 3DGS"};
-    if (run->smooth)
+    if (run->smooth) {
         fprintf(out, "n = %d: a smooth path between the views, no ground truth to score\n", run->interval);
+        decision_lines(out, run);
+    }
     else if (!run->has_means)
         fprintf(out, "n = %d: not evaluated yet\n", run->interval);
     else {
@@ -87,14 +102,7 @@ static void run_summary(FILE *out, const char *dir, const report_run *run)
         if (run->means[MODEL_RESTORED].present && run->means[MODEL_REFINED].present)
             fprintf(out, "  against the sparse renders the restored frames are %s, the refined model's %s\n", restored,
                     refined);
-        const char *gate = run->restorer.present ? run->restorer.gate : "";
-        char decisions[4096];
-        report_decisions_text(run, decisions, sizeof decisions);
-        if (decisions[0]) fprintf(out, "  decided: %s\n", decisions);
-        else if (!strcmp(gate, "closed"))
-            fprintf(out, "  the adaptation's gate is closed (its held-back views did not gain): the renders were kept\n");
-        else if (!strcmp(gate, "open"))
-            fprintf(out, "  the adaptation's gate is open (its held-back views gained): the renders were restored\n");
+        decision_lines(out, run);
         if (run->has_all_held_out && run->all_held_out[MODEL_SPARSE].frames > run->means[MODEL_SPARSE].frames) {
             fprintf(out, "  all %d held-out views (also those after the last training view): sparse %.2f",
                     run->all_held_out[MODEL_SPARSE].frames, run->all_held_out[MODEL_SPARSE].psnr);

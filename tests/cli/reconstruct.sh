@@ -340,6 +340,20 @@ if [ $HAVE_FFMPEG = 1 ]; then
         test "$(grep -c "was in the restorer's training set" PR/report.html)" -eq 0 -a "$(grep -c "<th>trained on</th><td>S<" PR/report.html)" -eq 1
 fi
 
+# The gated default on the same path: every view trains, so adaptation cannot run and nothing
+# is restored. The report then shows no restorer's changes and links the sparse model.
+expect 0 "smooth path, gated default" -- "$G" reconstruct "${RC0[@]}" --scene P --interval 1 --out PG --stop-after $LAST
+has "n=1 restore: skipped: adaptation cannot run here because every view trains (n = 1), so no view is left to pair with; the restored frames are the renders"
+has "decided: Restoration mode adapted. Adaptation skipped: every view trains (n = 1), so no view is left to pair with. Restoration skipped"
+if [ $HAVE_FFMPEG = 1 ]; then
+    check "no 'Biggest changes' table when nothing was restored" test "$(grep -c "Biggest changes" PG/report.html)" -eq 0
+    check "the strips say why they show the first and last frames" grep -q "(restoration was skipped)" PG/report.html
+    check "the top-level restorer says adaptation is per n" grep -q "where it has the views for it: see each n" PG/report.html
+    if [ -e PG/n1/viewer.html ]; then
+        check "the viewer link names the sparse model" grep -q "Open the sparse model in the viewer" PG/report.html
+    fi
+fi
+
 # --adapt: the scene checkpoint made in nN/ and restore uses it.
 expect 0 "adapt" -- "$G" reconstruct "${RC0[@]}" --adapt --adapt-config tiny1.json --adapt-steps 2 --out A \
     --stop-after restore
@@ -433,7 +447,7 @@ check "the report says what was decided" grep -q "<b>Decided:</b> Restoration mo
 # The gated default where the scene has too few training views to adapt (n = 8: 4 views;
 # the internal pairs need 5): the sparse model is kept, one line says why, no network runs.
 expect 0 "too few views to adapt" -- "$G" reconstruct "${RC0[@]}" --interval 8 --out F --stop-after $LAST
-has "n=8 restore: skipped: adaptation cannot run here (25 frames give 4 training views at n = 8"
+has "n=8 restore: skipped: adaptation cannot run here because 25 frames give 4 training views at n = 8"
 check "one stage line for it" test "$(grep -c "^n=8 .*adaptation cannot run here" "$T/out")" -eq 1
 has "n=8 refine: skipped: nothing was restored; the refined model is the sparse model"
 check "no adapt stage, no scene checkpoint" test ! -e F/n8/restorer.safetensors
@@ -442,7 +456,7 @@ import filecmp, json
 run = json.load(open('F/metrics.json'))['runs'][0]
 d = run['decisions']
 assert d['restore_with'] == 'adapted' and d['gate'] is None, d
-assert not d['adaptation']['ran'] and d['adaptation']['why'].startswith('cannot run here: 25 frames give 4 training views'), d
+assert not d['adaptation']['ran'] and d['adaptation']['why'].startswith('25 frames give 4 training views'), d
 assert d['restoration'] == {'ran': False, 'why': 'adaptation cannot run here'}, d
 assert d['refinement'] == {'ran': False, 'why': 'nothing was restored'}, d
 assert not d['refinement']['ran'], d
@@ -453,7 +467,7 @@ for f in run['frames']:
         assert f[kind] == f['sparse'], (f, kind)
 assert filecmp.cmp('F/n8/sparse.ply', 'F/n8/refined.ply', shallow=False)
 assert run['all_held_out']['refined'] == run['all_held_out']['sparse']"
-has "decided: Restoration mode adapted. Adaptation skipped: cannot run here: 25 frames give 4 training views at n = 8 \
+has "decided: Restoration mode adapted. Adaptation skipped: 25 frames give 4 training views at n = 8 \
 (frames 0, 8, ...); scene-internal pairs need at least 5 (at least 33 frames). Restoration skipped: adaptation cannot \
 run here. The restored frames are the renders. Refinement skipped: nothing was restored. The refined model is the sparse model."
 
