@@ -112,6 +112,27 @@ static inline gv_dit_inputs mt_dit_inputs(const mt_inputs *in)
     return d;
 }
 
+/* One evaluation of m on the fixed 5-frame 32x32 clip of seed 11, at timestep t (t < 0: the
+ * clip's own) with or without the release's BF16 time embedding; copies the output into out
+ * and returns its element count, or -1 (failure, or more than cap elements). */
+static inline int64_t mt_forward_clip(gv_dit *m, float t, int bf16_time, float *out, int64_t cap)
+{
+    gv_graph g;
+    gv_graph_init(&g, 0);
+    gv_graph_set_grad(&g, 0);
+    mt_inputs in;
+    int64_t n = -1;
+    if (mt_make_inputs(m, &g, NULL, 1, 5, 32, 32, 11, &in) == 0) {
+        if (t >= 0) in.t[0] = t;
+        gv_dit_inputs d = mt_dit_inputs(&in);
+        d.bf16_time = bf16_time;
+        gv_tensor *y = gv_dit_forward(m, &g, &d);
+        if (y && y->numel <= cap) memcpy(out, y->data, (size_t)(n = y->numel) * sizeof *out);
+    }
+    gv_graph_free(&g);
+    return n;
+}
+
 /* Largest |a - b| over n floats. */
 static inline double mt_max_abs_diff(const float *a, const float *b, int64_t n)
 {

@@ -52,26 +52,6 @@ static int load(gv_dit *m, const char *file)
     return rc;
 }
 
-/* y = the tiny network on a fixed 5-frame 32x32 clip; returns the output's element count. */
-static int64_t forward(gv_dit *m, float *out, int64_t cap)
-{
-    gv_graph g;
-    gv_graph_init(&g, 0);
-    gv_graph_set_grad(&g, 0);
-    mt_inputs in;
-    int64_t n = -1;
-    if (mt_make_inputs(m, &g, NULL, 1, 5, 32, 32, 11, &in) == 0) {
-        gv_dit_inputs d = mt_dit_inputs(&in);
-        gv_tensor *y = gv_dit_forward(m, &g, &d);
-        if (y && y->numel <= cap) {
-            memcpy(out, y->data, (size_t)y->numel * sizeof *out);
-            n = y->numel;
-        }
-    }
-    gv_graph_free(&g);
-    return n;
-}
-
 static double rel_l2(const float *a, const float *b, int64_t n)
 {
     double num = 0, den = 0;
@@ -110,12 +90,12 @@ static void test_dit(void)
 
     /* forward: BF16 files == F32 weights rounded to BF16, bit for bit; close to F32 */
     static float y32[4096], ybf[4096], yround[4096];
-    int64_t n32 = forward(&f32, y32, 4096), nbf = forward(&bf16, ybf, 4096);
+    int64_t n32 = mt_forward_clip(&f32, -1, 0, y32, 4096), nbf = mt_forward_clip(&bf16, -1, 0, ybf, 4096);
     for (int i = 0; i < f32.params.n; i++) {
         gv_tensor *t = &f32.params.items[i]->t;
         for (int64_t k = 0; k < t->numel; k++) t->data[k] = bf16_round(t->data[k]);
     }
-    int64_t nround = forward(&f32, yround, 4096);
+    int64_t nround = mt_forward_clip(&f32, -1, 0, yround, 4096);
     CHECK(n32 > 0 && n32 == nbf && nbf == nround);
     int same = n32 > 0;
     for (int64_t k = 0; k < n32 && same; k++) same = bits_of_float(ybf[k]) == bits_of_float(yround[k]);
