@@ -10,7 +10,6 @@
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup any_size "$1"
 LIB="$(cd "$(dirname "$0")/lib" && pwd)"
-CONFIGS="$(cd "$(dirname "$0")/../../configs" && pwd)"
 cd "$T" || exit 1
 
 # png_size FILE: "WxH" from the PNG's IHDR.
@@ -23,8 +22,7 @@ all_sized() {
     for f in "$@"; do [ "$(png_size "$f")" = "$want" ] || { echo "$f is $(png_size "$f"), not $want" >&2; return 1; }; done
 }
 
-sed -e 's/"temperal_downsample": \[false, true, true\]/"temperal_downsample": [false, false, false]/' \
-    -e 's/"temporal_factor": 4/"temporal_factor": 1/' -e 's/"name": "tiny"/"name": "tiny1"/' "$CONFIGS/tiny.json" >tiny1.json
+tiny1_config tiny1.json
 expect 0 "synth 37x23" -- "$G" scene synth --seed 3 --frames 25 --size 37x23 --samples 1 --out S --quiet
 expect 0 "dataset of odd clips" -- "$G" dataset build --scenes S --intervals 6 --iters 20 --clips-per-run 2 --seed 5 \
     --out D --quiet --threads 1

@@ -33,7 +33,6 @@ max_diff() {
 below() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a <= b) }'; }
 no_seconds() { grep -v '"seconds"' "$1"; }
 
-CONFIGS="$(cd "$(dirname "$0")/../../configs" && pwd)"
 cd "$T" || exit 1
 expect 0 "version" -- "$G" --version
 has "MPI: Open MPI"
@@ -92,9 +91,7 @@ expect 0 "K=1 resumes" -- "$G" "${TR[@]}" --batch 2 --out r21.safetensors --resu
 check "K=2 then K=1: the weights of one run" same_data t1.safetensors r21.safetensors
 
 # adapt: rank 0 builds the internal pairs, both fine-tune, rank 0 measures the gate.
-sed -e 's/"temperal_downsample": \[false, true, true\]/"temperal_downsample": [false, false, false]/' \
-    -e 's/"temporal_factor": 4/"temporal_factor": 1/' -e 's/"name": "tiny"/"name": "tiny1"/' \
-    "$CONFIGS/tiny.json" >tiny1.json
+tiny1_config tiny1.json
 expect 0 "vae, one frame a latent" -- "$G" vae train --config tiny1.json --scenes A --steps 2 --crop 32x32 \
     --stats-clips 2 --out vae1.safetensors --quiet
 expect 0 "base for adapt" -- "$G" pretrain --clips D --config tiny1.json --vae vae1.safetensors --steps 2 --batch 2 \

@@ -13,11 +13,9 @@
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup reconstruct "$1"
 
-CONFIGS="$(cd "$(dirname "$0")/../../configs" && pwd)"
 cd "$T" || exit 1
 # A 1-frame-per-latent tiny network (as adapt.sh): --adapt needs it.
-sed -e 's/"temperal_downsample": \[false, true, true\]/"temperal_downsample": [false, false, false]/' \
-    -e 's/"temporal_factor": 4/"temporal_factor": 1/' -e 's/"name": "tiny"/"name": "tiny1"/' "$CONFIGS/tiny.json" >tiny1.json
+tiny1_config tiny1.json
 expect 0 "synth" -- "$G" scene synth --seed 3 --frames 25 --size 64x48 --samples 1 --out S --quiet
 expect 0 "dataset" -- "$G" dataset build --scenes S --intervals 6 --iters 20 --clips-per-run 2 --seed 5 --out D \
     --quiet --threads 1

@@ -12,6 +12,8 @@
 #   has TEXT            $T/out contains TEXT
 #   exists PATH         PATH exists
 #   le64 N              prints the 8 little-endian bytes of N (safetensors headers)
+#   tiny1_config FILE   writes configs/tiny.json with a VAE of temporal factor 1 (one frame
+#                       per latent, as adapt's internal clips need) and counts it made
 #   st_zeros FILE "NAME D0,D1,..." ...
 #                       writes a safetensors file of F32 zeros with those tensors
 #   cli_finish          prints "N passed, M failed" and returns non-zero on any failure
@@ -72,6 +74,15 @@ st_zeros() {
     done
     header+="}"
     { le64 ${#header}; printf '%s' "$header"; head -c $off /dev/zero; } > "$file"
+}
+
+tiny1_config() {
+    local configs
+    configs="$(cd "$(dirname "${BASH_SOURCE[0]}")/../../../configs" && pwd)"
+    sed -e 's/"temperal_downsample": \[false, true, true\]/"temperal_downsample": [false, false, false]/' \
+        -e 's/"temporal_factor": 4/"temporal_factor": 1/' -e 's/"name": "tiny"/"name": "tiny1"/' \
+        "$configs/tiny.json" >"$1"
+    check "tiny1 config made" grep -q '"temporal_factor": 1' "$1"
 }
 
 cli_finish() {
