@@ -214,6 +214,24 @@ static void test_reset_opacity(void)
     gv_splat_adam_free(&adam), gv_gaussians_free(&g);
 }
 
+/* Decay multiplies each opacity (after the sigmoid) by the factor and keeps Adam's moments:
+ * logit(sigmoid(x) f). */
+static void test_decay_opacity(void)
+{
+    gv_gaussians g;
+    CHECK(gv_gaussians_alloc(&g, 3, 0) == 0);
+    g.opacities[0] = 0.0f, g.opacities[1] = 2.0f, g.opacities[2] = -6.0f;
+    gv_splat_decay_opacity(&g, 0.995);
+    CHECK_NEAR(g.opacities[0], log(0.4975 / 0.5025), 1e-6);          /* 0.5 -> 0.4975 */
+    double p = 0.995 / (1 + exp(-2.0));                                 /* 0.880797 -> 0.876393 */
+    CHECK_NEAR(g.opacities[1], log(p / (1 - p)), 1e-6);
+    p = 0.995 / (1 + exp(6.0));
+    CHECK_NEAR(g.opacities[2], log(p / (1 - p)), 1e-6);
+    for (int k = 0; k < 999; k++) gv_splat_decay_opacity(&g, 0.995); /* 1000 in all: 0.5 x 0.995^1000 */
+    CHECK_NEAR(1 / (1 + exp(-(double)g.opacities[0])), 0.5 * pow(0.995, 1000), 1e-6);
+    gv_gaussians_free(&g);
+}
+
 int main(void)
 {
     test_accumulate();
@@ -221,5 +239,6 @@ int main(void)
     test_lean_threshold();
     test_split_distribution();
     test_reset_opacity();
+    test_decay_opacity();
     return check_summary();
 }

@@ -429,6 +429,49 @@ static void test_resolution_schedule(const tiny_scene *s)
     for (int v = 0; v < 2; v++) gv_image_free(&images[v]);
 }
 
+/* decay (Binocular3DGS): no opacity reset (the short schedule resets at 90), the density
+ * control past densify_until (140) to the end, the training views still fitted, and the
+ * same model twice; unknown with mcmc and a factor outside (0, 1) refused. */
+static void test_decay(const tiny_scene *s)
+{
+    gv_splat_train_options o;
+    short_options(&o, 200);
+    o.regularize = GV_REGULARIZE_DECAY;
+    CHECK(gv_splat_regularize_parse("dropgaussian,decay") == (GV_REGULARIZE_DROPGAUSSIAN | GV_REGULARIZE_DECAY));
+    char name[64];
+    gv_splat_regularize_name(GV_REGULARIZE_DECAY, name, sizeof name);
+    CHECK(!strcmp(name, "decay"));
+    gv_gaussians a[2];
+    double before = 0;
+    for (int run = 0; run < 2; run++) {
+        gv_splat_trainer t;
+        int ok = gv_splat_trainer_init(&t, &o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N, s->points, NULL);
+        if (run == 0) before = train_psnr(&t.params, s);
+        int resets = 0, late_densify = 0;
+        for (int it = 1; it <= o.iterations && ok == 0; it++) {
+            ok = gv_splat_trainer_step(&t);
+            resets += (t.last_control & 2) != 0;
+            late_densify += it > 140 && (t.last_control & 1);
+        }
+        CHECK(ok == 0 && resets == 0 && late_densify == 2); /* 150 and 175 */
+        a[run] = t.params;
+        memset(&t.params, 0, sizeof t.params);
+        gv_splat_trainer_free(&t);
+    }
+    double after = train_psnr(&a[0], s);
+    fprintf(stderr, "decay: training views %.1f dB -> %.1f dB\n", before, after);
+    CHECK(after > before + 7);
+    CHECK(same_model(&a[0], &a[1]));
+    gv_gaussians_free(&a[0]), gv_gaussians_free(&a[1]);
+    gv_splat_trainer t;
+    o.decay_factor = 1;
+    CHECK_FAILS_WITH(gv_splat_trainer_init(&t, &o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N, s->points, NULL),
+                     "must be in (0, 1)");
+    o.decay_factor = 0.995, o.densify_mode = GV_DENSIFY_MCMC;
+    CHECK_FAILS_WITH(gv_splat_trainer_init(&t, &o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N, s->points, NULL),
+                     "not mcmc");
+}
+
 int main(void)
 {
     tiny_scene s;
@@ -443,6 +486,7 @@ int main(void)
     test_training_mcmc(&s);
     test_lean(&s);
     test_resolution_schedule(&s);
+    test_decay(&s);
     omp_set_num_threads(threads < 2 ? 2 : threads);
     test_deterministic(&s, GV_DENSIFY_LEAN);
     test_deterministic(&s, GV_DENSIFY_REFERENCE);

@@ -197,3 +197,11 @@ void gv_splat_reset_opacity(gv_gaussians *g, gv_splat_adam *adam)
     memset(adam->m.opacities, 0, (size_t)g->n * sizeof(float));
     memset(adam->v.opacities, 0, (size_t)g->n * sizeof(float));
 }
+
+void gv_splat_decay_opacity(gv_gaussians *g, double factor)
+{
+    for (int i = 0; i < g->n; i++) {
+        double o = factor / (1.0 + exp(-(double)g->opacities[i]));
+        g->opacities[i] = (float)log(o / (1.0 - o));
+    }
+}

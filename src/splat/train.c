@@ -58,6 +58,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     opt->corgs_distance = 0.05;
     opt->corgs_pseudo_weight = 1.0;
     opt->segs_interval = 500; /* SE-GS's release, noise_interval */
+    opt->decay_factor = 0.995; /* Binocular3DGS's release, opacity_decay_factor */
     opt->resolution_full_at = 0.5;
 }
 
@@ -87,6 +88,7 @@ static const struct { const char *name; int bit; } REGULARIZERS[] = {
     {"fsgs", GV_REGULARIZE_FSGS},
     {"corgs", GV_REGULARIZE_CORGS},
     {"segs", GV_REGULARIZE_SEGS},
+    {"decay", GV_REGULARIZE_DECAY},
 };
 enum { N_REGULARIZERS = sizeof REGULARIZERS / sizeof REGULARIZERS[0] };
 
@@ -148,6 +150,10 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
     if (gv_splat_resolution_check(opt->resolution_start, opt->resolution_full_at) != 0) return -1;
     if ((opt->regularize & GV_REGULARIZE_FSGS) && opt->densify_mode == GV_DENSIFY_MCMC)
         return gv_fail("train: fsgs unpools at the densification steps of lean or reference density control, not mcmc");
+    if ((opt->regularize & GV_REGULARIZE_DECAY) && opt->densify_mode == GV_DENSIFY_MCMC)
+        return gv_fail("train: decay replaces the opacity reset of lean or reference density control, not mcmc");
+    if ((opt->regularize & GV_REGULARIZE_DECAY) && !(opt->decay_factor > 0 && opt->decay_factor < 1))
+        return gv_fail("train: the opacity decay factor is %g; it must be in (0, 1)", opt->decay_factor);
     if ((opt->regularize & GV_REGULARIZE_CORGS) && opt->densify_mode == GV_DENSIFY_MCMC)
         return gv_fail("train: corgs co-prunes at the densification steps of lean or reference density control, not mcmc");
     if ((opt->regularize & GV_REGULARIZE_TWO_FIELDS) && !(opt->corgs_pseudo_weight >= 0 && isfinite(opt->corgs_pseudo_weight)))
@@ -298,12 +304,17 @@ static void background(gv_splat_trainer *t, float bg[3])
                 : t->opt.background == GV_BG_RANDOM ? (float)gv_rng_uniform(&t->bg_rng) : 0.0f;
 }
 
-/* Step 5. Returns a bit mask: 1 = densified, 2 = opacity reset; -1 on failure. */
+/* Step 5. Returns a bit mask: 1 = densified, 2 = opacity reset; -1 on failure.
+ * With decay (Binocular3DGS's release), every iteration after densify_from first multiplies
+ * the opacities by the decay factor, the control runs to the last iteration, and there is
+ * no opacity reset and no screen-size pruning: the decay does their work, fading what the
+ * training views do not keep opaque. */
 static int density_control(gv_splat_trainer *t)
 {
     const gv_splat_schedule *s = &t->opt.schedule;
-    int it = t->iteration, done = 0;
-    if (it >= s->densify_until || it >= t->opt.iterations) return 0;
+    int it = t->iteration, done = 0, decay = (t->opt.regularize & GV_REGULARIZE_DECAY) != 0;
+    if ((!decay && it >= s->densify_until) || it >= t->opt.iterations) return 0;
+    if (decay && it > s->densify_from) gv_splat_decay_opacity(&t->params, t->opt.decay_factor);
     gv_splat_renderer *r = &t->renderer;
     /* At 1/f of the size (resolution scheduling) the statistic needs no rescaling: it is the
      * gradient in NDC units, pixels x (W/2, H/2) of the render's own size, and for the same
@@ -318,7 +329,7 @@ static int density_control(gv_splat_trainer *t)
                                        t->densify_grad, r->radii, t->factor);
     if (it > s->densify_from && it % s->densify_interval == 0) {
         gv_splat_densify_params p = t->opt.densify;
-        p.prune_big = it > s->opacity_reset_interval; /* size_threshold given after 3000 */
+        p.prune_big = !decay && it > s->opacity_reset_interval; /* size_threshold given after 3000 */
         gv_splat_densify_counts c;
         if (gv_splat_densify_and_prune(&t->params, &t->adam, &t->stats, &p, &t->split_rng, &c))
             return -1;
@@ -332,8 +343,8 @@ static int density_control(gv_splat_trainer *t)
         }
         done |= 1;
     }
-    if (it % s->opacity_reset_interval == 0 ||
-        (t->opt.background == GV_BG_WHITE && it == s->densify_from)) {
+    if (!decay && (it % s->opacity_reset_interval == 0 ||
+                   (t->opt.background == GV_BG_WHITE && it == s->densify_from))) {
         gv_splat_reset_opacity(&t->params, &t->adam);
         done |= 2;
     }

@@ -228,7 +228,7 @@ expect 0 "other base" -- "$G" reconstruct "${RC[@]}" --densify reference --base 
 check "the training redone for the base" \
     grep -q 'n=6 train: made before with regularize "none", now "dropgaussian": done again' "$T/err"
 expect 2 "bad base" -- "$G" reconstruct "${RC[@]}" --base fsgs,turbo --out X
-one_line "--base fsgs,turbo: expected 3dgs, corgs, fsgs, dropgaussian, segs or a comma-separated list of the last four"
+one_line "--base fsgs,turbo: expected 3dgs, corgs, fsgs, dropgaussian, segs, decay or a comma-separated list of the last five"
 # A folder from before "densify" and "regularize" were recorded was trained with the reference
 # and no regulariser: kept for those settings.
 cp -r R R3

@@ -146,6 +146,9 @@ int gv_splat_densify_and_prune(gv_gaussians *g, gv_splat_adam *adam,
                                gv_rng *rng, gv_splat_densify_counts *counts);
 /* reset_opacity: opacity <= 0.01 for every Gaussian and zero opacity moments. */
 void gv_splat_reset_opacity(gv_gaussians *g, gv_splat_adam *adam);
+/* Binocular3DGS's opacity decay: every opacity times factor (on the sigmoid), Adam's moments
+ * kept, as the release assigns the tensor's data in place. */
+void gv_splat_decay_opacity(gv_gaussians *g, double factor);
 void gv_splat_densify_stats_free(gv_splat_densify_stats *s);
 
 /* ---- mcmc.c -----------------------------------------------------------------------------
@@ -266,10 +269,10 @@ const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode);
 /* Prior-free sparse-view regularisers (docs/SPLAT_TRAINING.md, "Sparse-view regularisers"),
  * a set of bits; none of them is the plain 3DGS of the reference. */
 enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0, GV_REGULARIZE_FSGS = 1 << 1, GV_REGULARIZE_CORGS = 1 << 2,
-       GV_REGULARIZE_SEGS = 1 << 3 };
+       GV_REGULARIZE_SEGS = 1 << 3, GV_REGULARIZE_DECAY = 1 << 4 };
 /* The regularisers that train a second field alongside the model. */
 #define GV_REGULARIZE_TWO_FIELDS (GV_REGULARIZE_CORGS | GV_REGULARIZE_SEGS)
-#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian, fsgs, corgs, segs"
+#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian, fsgs, corgs, segs, decay"
 /* "none", or names separated by commas (each once) -> the set; -1 for anything else. */
 int gv_splat_regularize_parse(const char *list);
 /* The set as the parser reads it ("none", "dropgaussian", ...) into buf of size n. */
@@ -293,6 +296,8 @@ typedef struct {
     double corgs_pseudo_weight; /* CoR-GS and SE-GS: weight of the pseudo-view term of the
                                  * two fields (1; 0: off) */
     int segs_interval;          /* SE-GS: iterations between the pseudo-view renders (500) */
+    double decay_factor;        /* decay: opacity times this every iteration after
+                                 * densify_from (0.995, Binocular3DGS's) */
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
