@@ -1,9 +1,13 @@
 /* The stages of `reconstruct` as a table (pipeline.h) and the loop over intervals and stages:
  * a stage is skipped when metrics.json lists it as finished and its files exist; once one
  * stage runs, every later one runs again (its inputs may have changed). */
+#include <errno.h>
+#include <libgen.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "gaussvid/train/checkpoint.h"
 #include "gaussvid/train/condition.h"
@@ -87,6 +91,26 @@ static int outputs_exist(const pipeline_run *r, const stage *s)
     return 1;
 }
 
+/* A stage that no longer applies (the folder was made in another mode) leaves its files with
+ * its record, so that the folder holds only what this run's numbers stand for: switched to
+ * --no-restore, no refined model or restored frames from before remain. */
+static int remove_outputs(const pipeline_run *r, const stage *s)
+{
+    char path[4200];
+    for (int k = 0; k < 4 && s->outputs[k]; k++) {
+        const char *o = s->outputs[k];
+        int frames = !strncmp(o, "frames/", 7), n = frames ? r->n_frames : 1;
+        for (int i = 0; i < n; i++) {
+            if (frames ? pipeline_frame_path(r, o + 7, r->frames[i].index, path, sizeof path)
+                       : pipeline_file(r, o, path, sizeof path))
+                return -1;
+            if (remove(path) != 0 && errno != ENOENT) return gv_fail("%s: cannot remove: %s", path, strerror(errno));
+        }
+        if (frames && n > 0) rmdir(dirname(path)); /* frames/X, when nothing else is in it */
+    }
+    return 0;
+}
+
 static int stage_index(const char *name)
 {
     for (int i = 0; i < N_STAGES; i++)
@@ -157,11 +181,15 @@ static int stage_recorded(const pipeline_run *r, const stage *s)
 /* Every stage of one interval up to `last`. */
 static int run_interval(pipeline_run *r, int last)
 {
-    int redo = 0;
+    int redo = 0, recorded[N_STAGES]; /* before any record is forgotten with an earlier one */
+    for (int i = 0; i < N_STAGES; i++) recorded[i] = stage_recorded(r, &STAGES[i]);
     for (int i = 0; i <= last; i++) {
         const stage *s = &STAGES[i];
         if (!s->applies(r)) { /* a record from another mode is stale, and so are the later ones */
-            if (stage_recorded(r, s)) pipeline_stage_forget(r, s->name), redo = 1;
+            if (recorded[i]) {
+                pipeline_stage_forget(r, s->name), redo = 1;
+                if (remove_outputs(r, s) != 0) return gv_fail_context("n=%d %s", r->interval, s->name);
+            }
             continue;
         }
         char why[256];

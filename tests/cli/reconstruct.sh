@@ -493,6 +493,16 @@ if [ $HAVE_FFMPEG = 1 ]; then
         NR/n6/flythrough.mp4)" = "128,48,53"
 fi
 
+# A restored folder switched to --no-restore: the sparse model is kept, and the restored
+# frames and refined model from before go with their stages' records.
+cp -r R RN
+expect 0 "switched to no restore" -- "$G" reconstruct "${RC0[@]}" --no-restore --out RN --stop-after $LAST
+check "the sparse model not trained again" grep -q "n=6 train: done before, skipped" "$T/err"
+check "the sparse model kept" cmp -s R/n6/sparse.ply RN/n6/sparse.ply
+check "no refined model or restored frames left" test ! -e RN/n6/refined.ply -a ! -e RN/n6/refined.splat \
+    -a ! -e RN/n6/frames/restored -a ! -e RN/n6/frames/refined
+check "the report links the sparse model" test "$(grep -c "Open the refined model" RN/report.html 2>/dev/null)" = 0
+
 # A preset and a flag over it, recorded: fast (lean, no restoration) with 50 iterations.
 expect 0 "fast with 50 iterations" -- "$G" reconstruct "${RC0[@]}" --preset fast --iters 50 --out FA --stop-after evaluate
 check "the first line" test "$(first_line)" = \
