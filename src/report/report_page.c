@@ -142,7 +142,9 @@ static int run_section(report_text *t, const char *dir, const report_metrics *m,
     text_printf(t, "%d training views (every %d-th frame); %d %s frames", run->n_train, run->interval, run->n_frames,
                 run->smooth ? "path" : "held-out");
     if (run->gaussians[0] >= 0) text_printf(t, "; %ld Gaussians sparse", run->gaussians[0]);
-    if (run->gaussians[1] >= 0) text_printf(t, ", %ld refined", run->gaussians[1]);
+    const report_decision *refinement = &run->decisions[DECISION_REFINEMENT];
+    if (run->gaussians[1] >= 0 && !(refinement->present && !refinement->ran)) /* skipped: the sparse model */
+        text_printf(t, ", %ld refined", run->gaussians[1]);
     text_append(t, ".");
     char model[8192];
     const char *which;

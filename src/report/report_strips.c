@@ -127,9 +127,9 @@ int report_strip(report_text *t, const char *dir, const report_run *run, int ind
 {
     const report_frame *f = &run->frames[index];
     gv_image img[N_IMAGES] = {{0}};
-    int rc = 0;
+    int rc = 0, copies = report_restoration_skipped(run); /* restored and refined are the render */
     for (int k = 0; k < N_IMAGES && rc == 0; k++) {
-        if (!f->images[k]) continue;
+        if (!f->images[k] || (copies && (k == IMAGE_RESTORED || k == IMAGE_REFINED))) continue;
         rc = report_read_image(dir, f->images[k], &img[k]);
         if (rc == 0 && k != IMAGE_RENDER) rc = match_size(&img[k], &img[IMAGE_RENDER], f->images[k]);
     }
@@ -146,10 +146,16 @@ int report_strip(report_text *t, const char *dir, const report_run *run, int ind
         snprintf(alt, sizeof alt, "%s, %.60s", titles[k], f->name);
         rc = cell(t, kinds[k], &img[k], caption, alt);
     }
-    text_append(t, "</div>\n<div class=\"row\">\n");
+    text_append(t, "</div>\n");
     /* error maps against the ground truth, or the changes against the render without it */
     const gv_image *reference = img[IMAGE_GROUND_TRUTH].pixels ? &img[IMAGE_GROUND_TRUTH] : &img[IMAGE_RENDER];
     int against_truth = reference == &img[IMAGE_GROUND_TRUTH];
+    if (!against_truth && copies) { /* nothing changed the render: no row of black maps */
+        text_append(t, "</figure>\n");
+        for (int k = 0; k < N_IMAGES; k++) gv_image_free(&img[k]);
+        return rc;
+    }
+    text_append(t, "<div class=\"row\">\n");
     for (int k = against_truth ? 0 : 1; k < N_MODELS && rc == 0; k++) {
         if (!img[k].pixels) continue;
         gv_image map;
