@@ -463,7 +463,22 @@ static void test_decay(const tiny_scene *s)
     CHECK(after > before + 7);
     CHECK(same_model(&a[0], &a[1]));
     gv_gaussians_free(&a[0]), gv_gaussians_free(&a[1]);
+    /* --decay-until 0.5: the same model as decay to the end through iteration 100, another
+     * from 101, the first iteration it does not decay */
+    gv_splat_train_options half = o;
+    half.decay_until = 0.5;
+    gv_splat_trainer u[2];
+    int ok = gv_splat_trainer_init(&u[0], &o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N, s->points, NULL) |
+             gv_splat_trainer_init(&u[1], &half, VIEWS, s->cams, s->images, extent_of(s), TRUE_N, s->points, NULL);
+    for (int it = 1; it <= 100 && ok == 0; it++) ok = gv_splat_trainer_step(&u[0]) | gv_splat_trainer_step(&u[1]);
+    CHECK(ok == 0 && same_model(&u[0].params, &u[1].params));
+    ok = gv_splat_trainer_step(&u[0]) | gv_splat_trainer_step(&u[1]);
+    CHECK(ok == 0 && !same_model(&u[0].params, &u[1].params));
+    gv_splat_trainer_free(&u[0]), gv_splat_trainer_free(&u[1]);
     gv_splat_trainer t;
+    half.decay_until = 0;
+    CHECK_FAILS_WITH(gv_splat_trainer_init(&t, &half, VIEWS, s->cams, s->images, extent_of(s), TRUE_N, s->points, NULL),
+                     "must be in (0, 1]");
     o.decay_factor = 1;
     CHECK_FAILS_WITH(gv_splat_trainer_init(&t, &o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N, s->points, NULL),
                      "must be in (0, 1)");

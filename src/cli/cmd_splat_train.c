@@ -29,7 +29,7 @@ int cmd_splat_train(int argc, char **argv)
     const char *scene_dir = NULL, *out = NULL;
     int interval = 1, iterations = 30000, downscale = 1, sh_degree = 3, seed = 0;
     double grad_threshold = 0, per_pixel = 0, regularizer = 0.01, fsgs_distance = 0.1,
-           corgs_distance = 0.05, corgs_pseudo = 1.0, decay_factor = 0.995;
+           corgs_distance = 0.05, corgs_pseudo = 1.0, decay_factor = 0.995, decay_until = 1.0;
     const char *densify = "lean", *regularize = "none";
     int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0, segs_interval = 500, resolution_start = 0;
     double resolution_full_at = 0; /* 0: not given (the schedule's 0.5) */
@@ -51,6 +51,7 @@ int cmd_splat_train(int argc, char **argv)
         {"corgs-pseudo", GV_FLAG_DOUBLE, &corgs_pseudo, "W", "corgs, segs: weight of the two fields' pseudo-view term (default 1; 0: off)", 0},
         {"segs-interval", GV_FLAG_INT, &segs_interval, "N", "segs: iterations between the pseudo-view renders that decide the perturbation (default 500)", 0},
         {"decay-factor", GV_FLAG_DOUBLE, &decay_factor, "F", "decay: the opacities' factor per iteration (default 0.995)", 0},
+        {"decay-until", GV_FLAG_DOUBLE, &decay_until, "S", "decay: only up to this share of the iterations, in (0, 1] (default 1: to the end)", 0},
         {"fsgs-distance", GV_FLAG_DOUBLE, &fsgs_distance, "X", "fsgs: unpool where the proximity score exceeds X x the scene extent (default 0.1)", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
@@ -98,7 +99,7 @@ int cmd_splat_train(int argc, char **argv)
         "  decay      Binocular3DGS's opacity decay: after iteration 500 every opacity\n"
         "             is multiplied by --decay-factor each iteration, the density control\n"
         "             runs to the end, with no opacity reset and no screen-size pruning\n"
-        "             (lean, reference)\n"
+        "             (lean, reference); --decay-until S stops the decay at S x N\n"
         "--iters N stops the schedule early (nothing is rescaled; the drop share\n"
         "follows --iters).\n"
         "Resolution scheduling (--resolution-schedule K, after DashGaussian): iterations\n"
@@ -140,8 +141,8 @@ int cmd_splat_train(int argc, char **argv)
         fprintf(stderr, "gaussvid splat train: --segs-interval must be at least 1\n");
         return 2;
     }
-    if (!(decay_factor > 0 && decay_factor < 1)) {
-        fprintf(stderr, "gaussvid splat train: --decay-factor must be in (0, 1)\n");
+    if (!(decay_factor > 0 && decay_factor < 1) || !(decay_until > 0 && decay_until <= 1)) {
+        fprintf(stderr, "gaussvid splat train: --decay-factor must be in (0, 1) and --decay-until in (0, 1]\n");
         return 2;
     }
     if (!(fsgs_distance > 0) || !(corgs_distance > 0)) {
@@ -180,6 +181,7 @@ int cmd_splat_train(int argc, char **argv)
     opt.corgs_pseudo_weight = corgs_pseudo;
     opt.segs_interval = segs_interval;
     opt.decay_factor = decay_factor;
+    opt.decay_until = decay_until;
     opt.progress_label = "train";
     gv_scene_options so = {.downscale = downscale, .white_background = white_bg};
     gv_scene scene;

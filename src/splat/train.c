@@ -59,6 +59,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     opt->corgs_pseudo_weight = 1.0;
     opt->segs_interval = 500; /* SE-GS's release, noise_interval */
     opt->decay_factor = 0.995; /* Binocular3DGS's release, opacity_decay_factor */
+    opt->decay_until = 1.0;
     opt->resolution_full_at = 0.5;
 }
 
@@ -154,6 +155,8 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
         return gv_fail("train: decay replaces the opacity reset of lean or reference density control, not mcmc");
     if ((opt->regularize & GV_REGULARIZE_DECAY) && !(opt->decay_factor > 0 && opt->decay_factor < 1))
         return gv_fail("train: the opacity decay factor is %g; it must be in (0, 1)", opt->decay_factor);
+    if ((opt->regularize & GV_REGULARIZE_DECAY) && !(opt->decay_until > 0 && opt->decay_until <= 1))
+        return gv_fail("train: the opacity decay's end is %g of the iterations; it must be in (0, 1]", opt->decay_until);
     if ((opt->regularize & GV_REGULARIZE_CORGS) && opt->densify_mode == GV_DENSIFY_MCMC)
         return gv_fail("train: corgs co-prunes at the densification steps of lean or reference density control, not mcmc");
     if ((opt->regularize & GV_REGULARIZE_TWO_FIELDS) && !(opt->corgs_pseudo_weight >= 0 && isfinite(opt->corgs_pseudo_weight)))
@@ -305,8 +308,9 @@ static void background(gv_splat_trainer *t, float bg[3])
 }
 
 /* Step 5. Returns a bit mask: 1 = densified, 2 = opacity reset; -1 on failure.
- * With decay (Binocular3DGS's release), every iteration after densify_from first multiplies
- * the opacities by the decay factor, the control runs to the last iteration, and there is
+ * With decay (Binocular3DGS's release), every iteration after densify_from (up to decay_until
+ * x iterations) first multiplies the opacities by the decay factor, the control runs to the
+ * last iteration, and there is
  * no opacity reset and no screen-size pruning: the decay does their work, fading what the
  * training views do not keep opaque. */
 static int density_control(gv_splat_trainer *t)
@@ -314,7 +318,8 @@ static int density_control(gv_splat_trainer *t)
     const gv_splat_schedule *s = &t->opt.schedule;
     int it = t->iteration, done = 0, decay = (t->opt.regularize & GV_REGULARIZE_DECAY) != 0;
     if ((!decay && it >= s->densify_until) || it >= t->opt.iterations) return 0;
-    if (decay && it > s->densify_from) gv_splat_decay_opacity(&t->params, t->opt.decay_factor);
+    if (decay && it > s->densify_from && it <= t->opt.decay_until * t->opt.iterations)
+        gv_splat_decay_opacity(&t->params, t->opt.decay_factor);
     gv_splat_renderer *r = &t->renderer;
     /* At 1/f of the size (resolution scheduling) the statistic needs no rescaling: it is the
      * gradient in NDC units, pixels x (W/2, H/2) of the render's own size, and for the same

@@ -298,6 +298,8 @@ typedef struct {
     int segs_interval;          /* SE-GS: iterations between the pseudo-view renders (500) */
     double decay_factor;        /* decay: opacity times this every iteration after
                                  * densify_from (0.995, Binocular3DGS's) */
+    double decay_until;         /* decay: ... up to this share of the iterations (1: to the
+                                 * end, the release's) */
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
