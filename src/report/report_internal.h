@@ -92,10 +92,11 @@ void report_consistency_line(const report_run *run, char *out, size_t size);
 int report_metrics_read(const char *path, report_metrics *m);
 void report_metrics_free(report_metrics *m);
 
-/* Whether the run decided not to restore (its restored frames are copies of the renders). */
-static inline int report_restoration_skipped(const report_run *run)
+/* Whether the run decided against one of its steps (DECISION_*): a skipped restoration leaves
+ * copies of the renders as restored frames, a skipped refinement the sparse model as refined. */
+static inline int report_skipped(const report_run *run, int decision)
 {
-    return run->decisions[DECISION_RESTORATION].present && !run->decisions[DECISION_RESTORATION].ran;
+    return run->decisions[decision].present && !run->decisions[decision].ran;
 }
 
 /* ---- a growable text ------------------------------------------------------------------ */

@@ -123,8 +123,7 @@ int report_run_model(const char *dir, const report_run *run, char *path, size_t 
 {
     static const char *const models[2] = {"refined", "sparse"};
     /* A skipped refinement leaves a copy of the sparse model as refined.splat: name it sparse. */
-    const report_decision *refinement = &run->decisions[DECISION_REFINEMENT];
-    for (int k = refinement->present && !refinement->ran; k < 2; k++) {
+    for (int k = report_skipped(run, DECISION_REFINEMENT); k < 2; k++) {
         char rel[64];
         snprintf(rel, sizeof rel, "n%d/%s.splat", run->interval, models[k]);
         if (gv_path_join(path, size, dir, rel) != 0) return 0;
@@ -142,8 +141,7 @@ static int run_section(report_text *t, const char *dir, const report_metrics *m,
     text_printf(t, "%d training views (every %d-th frame); %d %s frames", run->n_train, run->interval, run->n_frames,
                 run->smooth ? "path" : "held-out");
     if (run->gaussians[0] >= 0) text_printf(t, "; %ld Gaussians sparse", run->gaussians[0]);
-    const report_decision *refinement = &run->decisions[DECISION_REFINEMENT];
-    if (run->gaussians[1] >= 0 && !(refinement->present && !refinement->ran)) /* skipped: the sparse model */
+    if (run->gaussians[1] >= 0 && !report_skipped(run, DECISION_REFINEMENT)) /* skipped: the sparse model */
         text_printf(t, ", %ld refined", run->gaussians[1]);
     text_append(t, ".");
     char model[8192];

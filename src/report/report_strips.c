@@ -55,7 +55,7 @@ int report_pick_frames(const char *dir, const report_run *run, int picked[2], co
             if (pass == 0 && f->score[MODEL_SPARSE].present && f->score[MODEL_RESTORED].present)
                 v = f->score[MODEL_RESTORED].psnr - f->score[MODEL_SPARSE].psnr;
             else if (pass == 1 && f->score[MODEL_SPARSE].present) v = f->score[MODEL_SPARSE].psnr;
-            else if (pass == 2 && !report_restoration_skipped(run)) {
+            else if (pass == 2 && !report_skipped(run, DECISION_RESTORATION)) {
                 if (report_restorer_change(dir, f, &v) != 0) return -1;
                 if (v < 0) continue;
                 v = -v; /* "worst" here is the largest change: listed first, as the others */
@@ -82,7 +82,7 @@ int report_pick_frames(const char *dir, const report_run *run, int picked[2], co
     if (*worst < 0 && run->n_frames > 0) {
         *worst = 0;
         *best = run->n_frames - 1;
-        *rule = report_restoration_skipped(run) ? "the first and last frames of the path (restoration was skipped)"
+        *rule = report_skipped(run, DECISION_RESTORATION) ? "the first and last frames of the path (restoration was skipped)"
                                                 : "the first and last frames of the path (nothing restored yet)";
         labels[0] = "first";
         labels[1] = "last";
@@ -127,7 +127,7 @@ int report_strip(report_text *t, const char *dir, const report_run *run, int ind
 {
     const report_frame *f = &run->frames[index];
     gv_image img[N_IMAGES] = {{0}};
-    int rc = 0, copies = report_restoration_skipped(run); /* restored and refined are the render */
+    int rc = 0, copies = report_skipped(run, DECISION_RESTORATION); /* restored and refined are the render */
     for (int k = 0; k < N_IMAGES && rc == 0; k++) {
         if (!f->images[k] || (copies && (k == IMAGE_RESTORED || k == IMAGE_REFINED))) continue;
         rc = report_read_image(dir, f->images[k], &img[k]);

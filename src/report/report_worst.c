@@ -80,7 +80,7 @@ static void worst_table(report_text *t, const report_run *run, ranked *rows)
  * the restorer's mean absolute change of the image. */
 static int change_table(report_text *t, const char *dir, const report_run *run, ranked *rows)
 {
-    if (report_restoration_skipped(run)) return 0; /* the restored frames are the renders */
+    if (report_skipped(run, DECISION_RESTORATION)) return 0; /* the restored frames are the renders */
     int n = 0, by_psnr = !run->smooth;
     for (int i = 0; i < run->n_frames; i++) {
         const report_frame *f = &run->frames[i];
