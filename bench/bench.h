@@ -22,6 +22,8 @@ typedef struct {
     int checkpoint_every;  /* kernel stages are timed every this many iterations (1000) */
     int sparse_adam;
     int modes;             /* bit 1 << m for each density control m to run (gv_splat_densify_mode) */
+    int regularize;        /* the lean runs' regularisers (GV_REGULARIZE_* bits; splat train's
+                            * default GV_REGULARIZE_USER); the reference and mcmc run plain */
     int resolution_start;  /* 0, or one more run: lean with this resolution schedule (2, 4, 8) */
 } gv_bench_splat_options;
 /* Phase and kernel-stage times, Gaussian counts and final quality of a training run. */

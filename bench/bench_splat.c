@@ -125,6 +125,7 @@ typedef struct {
     double held_psnr, held_ssim, train_psnr, train_ssim;
     int final_gaussians;
     gv_splat_densify_mode mode;
+    int regularize;        /* GV_REGULARIZE_* bits */
     int resolution_start;  /* 0, or the resolution schedule's first factor */
     long peak_rss_kib;     /* of this run alone (-1 when the kernel cannot tell) */
 } scene_result;
@@ -173,12 +174,24 @@ static int evaluate(const gv_splat_trainer *t, const gv_scene *scene, int interv
     return ok;
 }
 
-/* What a run is: "lean (default)", "reference", "mcmc", "lean + 1/4 schedule". */
+/* splat train's default: lean with the user's regularisers, at full resolution throughout. */
+static int is_default(const scene_result *r)
+{
+    return r->mode == GV_DENSIFY_LEAN && r->regularize == GV_REGULARIZE_USER && r->resolution_start == 0;
+}
+
+/* What a run is: "lean + decay (default)", "reference", "mcmc", "lean + decay + 1/4 schedule",
+ * "lean" (with --regularize none). */
 static void run_name(const scene_result *r, char *buf, size_t n)
 {
-    const char *mode = gv_splat_densify_mode_name(r->mode);
-    if (r->resolution_start > 1) snprintf(buf, n, "%s + 1/%d schedule", mode, r->resolution_start);
-    else snprintf(buf, n, "%s%s", mode, r->mode == GV_DENSIFY_LEAN ? " (default)" : "");
+    char with[80] = "", names[64];
+    if (r->regularize) {
+        gv_splat_regularize_name(r->regularize, names, sizeof names);
+        snprintf(with, sizeof with, " + %s", names);
+    }
+    if (r->resolution_start > 1)
+        snprintf(with + strlen(with), sizeof with - strlen(with), " + 1/%d schedule", r->resolution_start);
+    snprintf(buf, n, "%s%s%s", gv_splat_densify_mode_name(r->mode), with, is_default(r) ? " (default)" : "");
 }
 
 static int bench_scene(const char *dir, const gv_bench_splat_options *o,
@@ -210,6 +223,7 @@ static int bench_scene(const char *dir, const gv_bench_splat_options *o,
     opt.iterations = o->iterations;
     opt.sparse_adam = o->sparse_adam;
     opt.densify_mode = mode;
+    opt.regularize = mode == GV_DENSIFY_LEAN ? o->regularize : 0;
     opt.resolution_start = resolution_start;
     if (gv_splat_trainer_init(&t, &opt, n_train, cams, images,
                               gv_scene_extent(&scene, train, n_train), scene.n_points,
@@ -218,6 +232,7 @@ static int bench_scene(const char *dir, const gv_bench_splat_options *o,
     const char *base = strrchr(dir, '/');
     snprintf(res->name, sizeof res->name, "%s", base && base[1] ? base + 1 : dir);
     res->mode = mode;
+    res->regularize = opt.regularize;
     res->resolution_start = resolution_start;
     res->width = cams[0].width, res->height = cams[0].height;
     res->n_train = n_train, res->iterations = o->iterations, res->n_checkpoints = 0;
@@ -348,10 +363,12 @@ static void print_comparison(const scene_result *results, int n, int interval, F
     fprintf(out, "\n");
     for (int k = 0; k < n; k++) {
         const scene_result *r = &results[k], *ref = reference_of(results, n, r);
-        if (r->mode != GV_DENSIFY_LEAN || r->resolution_start != 0) continue; /* the default */
+        if (!is_default(r)) continue;
+        char run[64];
+        run_name(r, run, sizeof run);
         if (ref)
-            fprintf(out, "%s: default (lean) / reference: wall %.2f, CPU %.2f; held-out PSNR "
-                    "%+.2f dB, SSIM %+.4f; Gaussians %.2f\n", r->name, r->seconds / ref->seconds,
+            fprintf(out, "%s: %s / reference: wall %.2f, CPU %.2f; held-out PSNR "
+                    "%+.2f dB, SSIM %+.4f; Gaussians %.2f\n", r->name, run, r->seconds / ref->seconds,
                     r->cpu_seconds / ref->cpu_seconds, r->held_psnr - ref->held_psnr,
                     r->held_ssim - ref->held_ssim, (double)r->final_gaussians / ref->final_gaussians);
         print_target(r, interval, out);
@@ -363,6 +380,9 @@ static cJSON *result_json(const scene_result *r)
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "scene", r->name);
     cJSON_AddStringToObject(o, "densify", gv_splat_densify_mode_name(r->mode));
+    char regularize[64];
+    gv_splat_regularize_name(r->regularize, regularize, sizeof regularize);
+    cJSON_AddStringToObject(o, "regularize", regularize);
     char run[64];
     run_name(r, run, sizeof run);
     cJSON_AddStringToObject(o, "run", run);
@@ -452,6 +472,7 @@ int gv_bench_splat_command(int argc, char **argv)
     gv_bench_splat_options o = {.interval = 6, .iterations = 8000, .checkpoint_every = 1000};
     int quick = 0;
     gv_flag_list densify = {.n = 0};
+    const char *regularize = NULL; /* NULL: splat train's default */
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene, "DIR", "one scene (default: the shared courtyard and livingroom)", 0},
         {"json", GV_FLAG_BOOL, &o.json, NULL, "print JSON instead of tables", 0},
@@ -460,17 +481,18 @@ int gv_bench_splat_command(int argc, char **argv)
         {"interval", GV_FLAG_INT, &o.interval, "N", "train on frames 0, N, 2N, ... (default 6)", 0},
         {"sparse-adam", GV_FLAG_BOOL, &o.sparse_adam, NULL, "lean and reference: Adam on the visible Gaussians only", 0},
         {"densify", GV_FLAG_LIST, &densify, "MODE...", "density controls to run, of lean, reference, mcmc (default lean,reference)", 0},
+        {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "the lean runs' regularisers, as splat train's (default decay; none: plain)", 0},
         {"resolution-schedule", GV_FLAG_INT, &o.resolution_start, "K", "one more run: lean with splat train's --resolution-schedule K (2, 4 or 8)", 0},
     };
     const gv_command_spec spec = {
         "bench splat", NULL, "sparse-view 3DGS training speed: phases, kernel stages, quality",
         "Trains on every 6th frame of each scene for 8000 iterations (the dataset's early stop),\n"
-        "once with each density control of --densify (by default lean, splat train's default,\n"
-        "and the paper's reference, --densify reference), plain 3DGS, and with\n"
-        "--resolution-schedule K once more with lean and that schedule; prints for each run\n"
-        "the median ms per iteration of each phase, the Gaussian count and the median time of\n"
-        "each kernel stage every 1000 iterations, the seconds for the run, its peak RSS and\n"
-        "the final held-out PSNR / SSIM. Then every run side by side (wall and CPU seconds,\n"
+        "once with each density control of --densify: by default lean with the opacity decay\n"
+        "(--regularize), splat train's default, and the paper's reference (--densify\n"
+        "reference, plain 3DGS); with --resolution-schedule K once more with lean and that\n"
+        "schedule. Prints for each run the median ms per iteration of each phase, the\n"
+        "Gaussian count and the median time of each kernel stage every 1000 iterations, the\n"
+        "seconds for the run, its peak RSS and the final held-out PSNR / SSIM. Then every run side by side (wall and CPU seconds,\n"
         "both as a ratio of the reference's on the same scene, Gaussians, held-out PSNR /\n"
         "SSIM, peak RSS), a line per scene with the default's ratios to the reference, and\n"
         "whether the default meets issue 38's target: 8000 iterations at n = 6, 256x144,\n"
@@ -489,6 +511,11 @@ int gv_bench_splat_command(int argc, char **argv)
             return 2;
         }
         o.modes |= 1 << mode;
+    }
+    o.regularize = regularize ? gv_splat_regularize_parse(regularize) : GV_REGULARIZE_USER;
+    if (o.regularize < 0) {
+        fprintf(stderr, "gaussvid bench splat: --regularize %s: expected " GV_REGULARIZE_NAMES "\n", regularize);
+        return 2;
     }
     if (o.resolution_start != 0 && o.resolution_start != 2 && o.resolution_start != 4 &&
         o.resolution_start != 8) {

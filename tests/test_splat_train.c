@@ -436,7 +436,9 @@ static void test_decay(const tiny_scene *s)
 {
     gv_splat_train_options o;
     short_options(&o, 200);
+    CHECK(o.decay_until == 0.5); /* the default: half the run */
     o.regularize = GV_REGULARIZE_DECAY;
+    o.decay_until = 1; /* the release's: to the end */
     CHECK(gv_splat_regularize_parse("dropgaussian,decay") == (GV_REGULARIZE_DROPGAUSSIAN | GV_REGULARIZE_DECAY));
     char name[64];
     gv_splat_regularize_name(GV_REGULARIZE_DECAY, name, sizeof name);

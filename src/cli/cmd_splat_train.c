@@ -29,8 +29,10 @@ int cmd_splat_train(int argc, char **argv)
     const char *scene_dir = NULL, *out = NULL;
     int interval = 1, iterations = 30000, downscale = 1, sh_degree = 3, seed = 0;
     double grad_threshold = 0, per_pixel = 0, regularizer = 0.01, fsgs_distance = 0.1,
-           corgs_distance = 0.05, corgs_pseudo = 1.0, decay_factor = 0.995, decay_until = 1.0;
-    const char *densify = "lean", *regularize = "none";
+           corgs_distance = 0.05, corgs_pseudo = 1.0;
+    const char *densify = "lean", *regularize = NULL; /* NULL: the user's, GV_REGULARIZE_USER */
+    gv_splat_train_options opt;
+    gv_splat_train_defaults(&opt);
     int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0, segs_interval = 500, resolution_start = 0;
     double resolution_full_at = 0; /* 0: not given (the schedule's 0.5) */
     const gv_flag flags[] = {
@@ -46,12 +48,12 @@ int cmd_splat_train(int argc, char **argv)
         {"sparse-adam", GV_FLAG_BOOL, &sparse_adam, NULL,
          "lean and reference: Adam on the visible Gaussians only (default: all; mcmc steps all)", 0},
         {"densify", GV_FLAG_STRING, &densify, "MODE", "lean (default), reference or mcmc", 0},
-        {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "sparse-view regularisers: none (default), dropgaussian, fsgs, corgs, segs, decay", 0},
+        {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "sparse-view regularisers: decay (default), none (plain 3DGS), dropgaussian, fsgs, corgs, segs", 0},
         {"corgs-distance", GV_FLAG_DOUBLE, &corgs_distance, "X", "corgs: co-prune Gaussians without a counterpart within X x the scene extent (default 0.05)", 0},
         {"corgs-pseudo", GV_FLAG_DOUBLE, &corgs_pseudo, "W", "corgs, segs: weight of the two fields' pseudo-view term (default 1; 0: off)", 0},
         {"segs-interval", GV_FLAG_INT, &segs_interval, "N", "segs: iterations between the pseudo-view renders that decide the perturbation (default 500)", 0},
-        {"decay-factor", GV_FLAG_DOUBLE, &decay_factor, "F", "decay: the opacities' factor per iteration (default 0.995)", 0},
-        {"decay-until", GV_FLAG_DOUBLE, &decay_until, "S", "decay: only up to this share of the iterations, in (0, 1] (default 1: to the end)", 0},
+        {"decay-factor", GV_FLAG_DOUBLE, &opt.decay_factor, "F", "decay: the opacities' factor per iteration (default 0.995)", 0},
+        {"decay-until", GV_FLAG_DOUBLE, &opt.decay_until, "S", "decay: only up to this share of the iterations, in (0, 1] (default 0.5; 1: to the end)", 0},
         {"fsgs-distance", GV_FLAG_DOUBLE, &fsgs_distance, "X", "fsgs: unpool where the proximity score exceeds X x the scene extent (default 0.1)", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
@@ -74,7 +76,13 @@ int cmd_splat_train(int argc, char **argv)
         "             Gaussians are relocated onto opaque ones, the count grows by 5 % every\n"
         "             100 iterations from 500 until the budget (3DGS as MCMC): about 2.6x\n"
         "             faster, better held out on some scenes, worse on others\n"
-        "Sparse-view regularisers (--regularize, none = plain 3DGS):\n"
+        "Sparse-view regularisers (--regularize; none = plain 3DGS):\n"
+        "  decay      (default) Binocular3DGS's opacity decay: from iteration 500 to\n"
+        "             --decay-until x N (default half the run) every opacity is\n"
+        "             multiplied by --decay-factor each iteration, the density control\n"
+        "             runs to the end, with no opacity reset and no screen-size pruning\n"
+        "             (lean, reference); at 8000 iterations +0.54 dB held-out PSNR over\n"
+        "             plain 3DGS on average over 15 scenes and sparsities\n"
         "  dropgaussian  each training render leaves out a random share of the Gaussians\n"
         "             (0 growing linearly to 0.2 at the last iteration) and scales the\n"
         "             opacity of the others by 1 / (1 - share); renders are unchanged\n"
@@ -96,10 +104,6 @@ int cmd_splat_train(int argc, char **argv)
         "             (position, opacity, scale, rotation; ratio 0.08 down to 0.02), so\n"
         "             the model is pulled towards an ensemble of perturbed fields; with\n"
         "             corgs too, co-pruning as well (the SE-GS release's configuration)\n"
-        "  decay      Binocular3DGS's opacity decay: after iteration 500 every opacity\n"
-        "             is multiplied by --decay-factor each iteration, the density control\n"
-        "             runs to the end, with no opacity reset and no screen-size pruning\n"
-        "             (lean, reference); --decay-until S stops the decay at S x N\n"
         "--iters N stops the schedule early (nothing is rescaled; the drop share\n"
         "follows --iters).\n"
         "Resolution scheduling (--resolution-schedule K, after DashGaussian): iterations\n"
@@ -121,8 +125,6 @@ int cmd_splat_train(int argc, char **argv)
         return 2;
     }
 
-    gv_splat_train_options opt;
-    gv_splat_train_defaults(&opt);
     opt.iterations = iterations;
     opt.sh_degree = sh_degree;
     opt.seed = (uint64_t)seed;
@@ -141,7 +143,7 @@ int cmd_splat_train(int argc, char **argv)
         fprintf(stderr, "gaussvid splat train: --segs-interval must be at least 1\n");
         return 2;
     }
-    if (!(decay_factor > 0 && decay_factor < 1) || !(decay_until > 0 && decay_until <= 1)) {
+    if (!(opt.decay_factor > 0 && opt.decay_factor < 1) || !(opt.decay_until > 0 && opt.decay_until <= 1)) {
         fprintf(stderr, "gaussvid splat train: --decay-factor must be in (0, 1) and --decay-until in (0, 1]\n");
         return 2;
     }
@@ -168,7 +170,11 @@ int cmd_splat_train(int argc, char **argv)
     opt.resolution_start = resolution_start;
     opt.resolution_full_at = resolution_full_at;
     opt.densify_mode = (gv_splat_densify_mode)mode;
-    if ((opt.regularize = gv_splat_regularize_parse(regularize)) < 0) {
+    /* The decay needs the lean or reference control (mcmc prunes and relocates its own way):
+     * with mcmc and no --regularize, plain 3DGS. */
+    if (!regularize) opt.regularize = opt.densify_mode == GV_DENSIFY_MCMC ? 0 : GV_REGULARIZE_USER;
+    else opt.regularize = gv_splat_regularize_parse(regularize);
+    if (opt.regularize < 0) {
         fprintf(stderr, "gaussvid splat train: --regularize %s: expected " GV_REGULARIZE_NAMES "\n", regularize);
         return 2;
     }
@@ -180,8 +186,6 @@ int cmd_splat_train(int argc, char **argv)
     opt.corgs_distance = corgs_distance;
     opt.corgs_pseudo_weight = corgs_pseudo;
     opt.segs_interval = segs_interval;
-    opt.decay_factor = decay_factor;
-    opt.decay_until = decay_until;
     opt.progress_label = "train";
     gv_scene_options so = {.downscale = downscale, .white_background = white_bg};
     gv_scene scene;

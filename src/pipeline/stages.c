@@ -60,6 +60,7 @@ void gv_reconstruct_defaults(gv_reconstruct_options *o)
     o->downscale = 0; /* chosen from the images' size */
     o->iters = 8000;
     o->densify = GV_DENSIFY_LEAN; /* the user's model (issue 38): the reference's quality, half its time */
+    o->regularize = GV_REGULARIZE_USER;
     o->refine_iters = 1000;
     o->refine_weight = 0.3;
     o->restore_with = GV_RESTORE_ADAPTED;

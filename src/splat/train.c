@@ -59,7 +59,9 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     opt->corgs_pseudo_weight = 1.0;
     opt->segs_interval = 500; /* SE-GS's release, noise_interval */
     opt->decay_factor = 0.995; /* Binocular3DGS's release, opacity_decay_factor */
-    opt->decay_until = 1.0;
+    /* Half the iterations, not the release's whole run: decay to the end costs up to 1.7 dB
+     * where the views are many (docs/RESULTS.md section 5, "opacity decay"). */
+    opt->decay_until = 0.5;
     opt->resolution_full_at = 0.5;
 }
 

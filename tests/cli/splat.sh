@@ -48,10 +48,29 @@ check "unknown --densify exits 2" test $? -eq 2
 check "unknown --densify explained" grep -q "expected lean, reference or mcmc" "$tmp/err.txt"
 check "unknown --densify: no model" test ! -e "$tmp/x.ply"
 
-# Regularisers: none is the default (plain 3DGS); DropGaussian trains another model, the
-# same for the same seed; unknown, empty or repeated names are usage errors.
-train "$tmp/none.ply" --regularize none > /dev/null 2>&1
-check "--regularize none is the default" cmp -s "$tmp/a.ply" "$tmp/none.ply"
+# Regularisers: the opacity decay to half the run is the default. In 1200 iterations it acts
+# from 501 to 600: the default is --regularize decay --decay-until 0.5 and another model than
+# plain 3DGS (--regularize none) or the decay to the end. With mcmc the default is plain (the
+# decay needs the lean or reference control). DropGaussian trains another model, the same for
+# the same seed; unknown, empty or repeated names are usage errors.
+train "$tmp/dec_default.ply" --iters 1200 > /dev/null 2>&1
+train "$tmp/dec_half.ply" --iters 1200 --regularize decay --decay-until 0.5 > /dev/null 2>&1
+train "$tmp/dec_end.ply" --iters 1200 --regularize decay --decay-until 1 > /dev/null 2>&1
+train "$tmp/none.ply" --iters 1200 --regularize none > /dev/null 2>&1
+check "decay to half the run is the default" cmp -s "$tmp/dec_default.ply" "$tmp/dec_half.ply"
+check "the default is not plain 3DGS" test -s "$tmp/none.ply" -a -n "$(cmp "$tmp/dec_default.ply" "$tmp/none.ply")"
+check "the decay to the end is another model" test -s "$tmp/dec_end.ply" -a -n "$(cmp "$tmp/dec_default.ply" "$tmp/dec_end.ply")"
+train "$tmp/mcmc_default.ply" --densify mcmc > /dev/null 2>&1
+train "$tmp/mcmc_none.ply" --densify mcmc --regularize none > /dev/null 2>&1
+check "with mcmc the default is plain 3DGS" cmp -s "$tmp/mcmc_default.ply" "$tmp/mcmc_none.ply"
+train "$tmp/x.ply" --densify mcmc --regularize decay > /dev/null 2> "$tmp/err.txt"
+check "decay with mcmc refused" test $? -eq 1 -a -n "$(grep -i "decay" "$tmp/err.txt")" -a ! -e "$tmp/x.ply"
+for bad in "--decay-until 0" "--decay-until 1.5" "--decay-factor 1" "--decay-factor 0"; do
+    train "$tmp/x.ply" $bad > /dev/null 2> "$tmp/err.txt"
+    check "$bad exits 2" test $? -eq 2
+    check "$bad explained in one line" test "$(cat "$tmp/err.txt")" = \
+        "gaussvid splat train: --decay-factor must be in (0, 1) and --decay-until in (0, 1]"
+done
 train "$tmp/drop1.ply" --regularize dropgaussian > /dev/null 2>&1
 train "$tmp/drop2.ply" --regularize dropgaussian > /dev/null 2>&1
 check "dropgaussian: same seed, same model" cmp -s "$tmp/drop1.ply" "$tmp/drop2.ply"
