@@ -1,11 +1,13 @@
 /* The stages of `reconstruct` as a table (pipeline.h) and the loop over intervals and stages:
  * a stage is skipped when metrics.json lists it as finished and its files exist; once one
  * stage runs, every later one runs again (its inputs may have changed). */
+#include <dirent.h>
 #include <errno.h>
 #include <libgen.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -33,16 +35,19 @@ typedef struct {
     const char *outputs[4];         /* in DIR/nN; "frames/X" means every evaluated frame's PNG */
     const char *decides;            /* the decision it records in metrics.json for a later stage
                                        to read, or NULL */
+    const char *scratch;            /* a folder in DIR/nN of files it writes on the way (restore's
+                                       clips), or NULL: emptied before it runs again and when it
+                                       no longer applies, never needed for it to count as done */
 } stage;
 
 static const stage STAGES[] = {
-    {"train", pipeline_train, always, "iters densify regularize seed downscale", {"sparse.ply", "sparse.splat"}, NULL},
-    {"render", pipeline_render, always, "", {"frames/render"}, NULL},
-    {"adapt", pipeline_adapt, adapting, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}, NULL},
-    {"restore", pipeline_restore, restoring, "checkpoint restore_with seed", {"frames/restored"}, "restoration"},
-    {"refine", pipeline_refine, restoring, "refine_iters refine_weight", {"refined.ply", "refined.splat", "frames/refined"}, NULL},
-    {"evaluate", pipeline_evaluate, always, "lpips restore_with", {NULL}, NULL},
-    {"video", pipeline_video, always, "fps restore_with", {"flythrough.mp4"}, NULL},
+    {"train", pipeline_train, always, "iters densify regularize seed downscale", {"sparse.ply", "sparse.splat"}, NULL, NULL},
+    {"render", pipeline_render, always, "", {"frames/render"}, NULL, NULL},
+    {"adapt", pipeline_adapt, adapting, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}, NULL, NULL},
+    {"restore", pipeline_restore, restoring, "checkpoint restore_with seed", {"frames/restored"}, "restoration", "clips"},
+    {"refine", pipeline_refine, restoring, "refine_iters refine_weight", {"refined.ply", "refined.splat", "frames/refined"}, NULL, NULL},
+    {"evaluate", pipeline_evaluate, always, "lpips restore_with", {NULL}, NULL, NULL},
+    {"video", pipeline_video, always, "fps restore_with", {"flythrough.mp4"}, NULL, NULL},
 };
 #define N_STAGES ((int)(sizeof STAGES / sizeof STAGES[0]))
 
@@ -92,11 +97,33 @@ static int outputs_exist(const pipeline_run *r, const stage *s)
     return 1;
 }
 
+/* Empties and removes the stage's scratch folder: a restore whose gate has closed since, or
+ * that no longer runs, leaves no clips of an earlier run. Only regular files are removed: the
+ * folder is the stage's own. */
+static int remove_scratch(const pipeline_run *r, const stage *s)
+{
+    char dir[4200], path[4500];
+    if (!s->scratch || pipeline_file(r, s->scratch, dir, sizeof dir)) return s->scratch ? -1 : 0;
+    DIR *d = opendir(dir);
+    if (!d) return errno == ENOENT ? 0 : gv_fail("%s: cannot open: %s", dir, strerror(errno));
+    int rc = 0;
+    for (struct dirent *e; rc == 0 && (e = readdir(d));) {
+        struct stat st;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        if (lstat(path, &st) == 0 && S_ISREG(st.st_mode) && remove(path) != 0)
+            rc = gv_fail("%s: cannot remove: %s", path, strerror(errno));
+    }
+    closedir(d);
+    if (rc == 0) rmdir(dir); /* left when something else is in it */
+    return rc;
+}
+
 /* A stage that no longer applies (the folder was made in another mode) leaves its files with
  * its record, so that the folder holds only what this run's numbers stand for: switched to
- * --no-restore, no refined model or restored frames from before remain. */
+ * --no-restore, no refined model, restored frames or clips from before remain. */
 static int remove_outputs(const pipeline_run *r, const stage *s)
 {
+    if (remove_scratch(r, s)) return -1;
     char path[4200];
     for (int k = 0; k < 4 && s->outputs[k]; k++) {
         const char *o = s->outputs[k];
@@ -209,6 +236,7 @@ static int run_interval(pipeline_run *r, int last)
         }
         redo = 1;
         pipeline_stage_forget(r, s->name);
+        if (remove_scratch(r, s)) return gv_fail_context("n=%d %s", r->interval, s->name);
         r->summary[0] = 0;
         double wall = gv_now(), cpu = cpu_seconds();
         if (s->run(r)) return gv_fail_context("n=%d %s", r->interval, s->name);

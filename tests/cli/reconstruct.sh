@@ -498,13 +498,14 @@ if [ $HAVE_FFMPEG = 1 ]; then
 fi
 
 # A restored folder switched to --no-restore: the sparse model is kept, and the restored
-# frames and refined model from before go with their stages' records.
+# frames, clips and refined model from before go with their stages' records.
 cp -r R RN
+exists RN/n6/clips/clip_0000.safetensors
 expect 0 "switched to no restore" -- "$G" reconstruct "${RC0[@]}" --no-restore --out RN --stop-after $LAST
 check "the sparse model not trained again" grep -q "n=6 train: done before, skipped" "$T/err"
 check "the sparse model kept" cmp -s R/n6/sparse.ply RN/n6/sparse.ply
-check "no refined model or restored frames left" test ! -e RN/n6/refined.ply -a ! -e RN/n6/refined.splat \
-    -a ! -e RN/n6/frames/restored -a ! -e RN/n6/frames/refined
+check "no refined model, restored frames or clips left" test ! -e RN/n6/refined.ply -a ! -e RN/n6/refined.splat \
+    -a ! -e RN/n6/frames/restored -a ! -e RN/n6/frames/refined -a ! -e RN/n6/clips
 check "the report links the sparse model" test "$(grep -c "Open the refined model" RN/report.html 2>/dev/null)" = 0
 
 # A preset and a flag over it, recorded: fast (lean, no restoration) with 50 iterations.
