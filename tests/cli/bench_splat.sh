@@ -25,14 +25,14 @@ check "table has checkpoint rows" test "$rows" -ge 5
 check "table has the phases" grep -q "median ms per iteration: render" "$tmp/table.txt"
 check "table has the quality" grep -q "held-out PSNR" "$tmp/table.txt"
 check "table compares the default with the reference" \
-    test "$(grep -cE '^\| scene \| (lean \+ decay \(default\)|reference) \| [0-9.]+ \| [0-9.]+ \| [0-9.]+ \| [0-9.]+ \|' "$tmp/table.txt")" -eq 2
+    test "$(grep -cE '^\| scene \| (lean \+ dropgaussian,decay \(default\)|reference) \| [0-9.]+ \| [0-9.]+ \| [0-9.]+ \| [0-9.]+ \|' "$tmp/table.txt")" -eq 2
 check "the reference's ratios are 1" grep -qE '^\| scene \| reference \| [0-9.]+ \| [0-9.]+ \| 1.00 \| 1.00 \|' "$tmp/table.txt"
-check "the default's ratio line" grep -qE '^scene: lean \+ decay \(default\) / reference: wall [0-9.]+, CPU [0-9.]+; held-out PSNR' "$tmp/table.txt"
+check "the default's ratio line" grep -qE '^scene: lean \+ dropgaussian,decay \(default\) / reference: wall [0-9.]+, CPU [0-9.]+; held-out PSNR' "$tmp/table.txt"
 check "the time target is not judged at 20 iterations" \
     grep -q "^scene: time target not judged: this run is 20 iterations, interval 6, 48x32, 1 threads" "$tmp/table.txt"
 "$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet --resolution-schedule 4 > "$tmp/res.txt"
 check "--resolution-schedule adds a run" test "$(grep -cE '^\| scene \| [a-z][^|]* \| [0-9.]+ \| ' "$tmp/res.txt")" -eq 3
-check "the scheduled run is named" grep -qE '^\| scene \| lean \+ decay \+ 1/4 schedule \| ' "$tmp/res.txt"
+check "the scheduled run is named" grep -qE '^\| scene \| lean \+ dropgaussian,decay \+ 1/4 schedule \| ' "$tmp/res.txt"
 "$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet --regularize none > "$tmp/none.txt"
 check "--regularize none: plain lean, not the default" grep -qE '^\| scene \| lean \| [0-9.]+ \| ' "$tmp/none.txt"
 check "--regularize none: no default's line" test -z "$(grep ' (default) / reference' "$tmp/none.txt")"
@@ -48,7 +48,7 @@ check "unknown mode exits 2" test $? -eq 2
 check "unknown mode named" grep -q "'dense' is not one of lean, reference or mcmc" "$tmp/err.txt"
 "$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet --json > "$tmp/b.json"
 check "json run exits 0" test $? -eq 0
-check "json names the regularisers" grep -q '"regularize":.*"decay"' "$tmp/b.json"
+check "json names the regularisers" grep -q '"regularize":.*"dropgaussian,decay"' "$tmp/b.json"
 for key in seconds cpu_seconds median_ms checkpoints held_out_psnr final_gaussians; do
     check "json has $key" grep -q "\"$key\":" "$tmp/b.json"
 done

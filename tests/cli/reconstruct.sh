@@ -84,12 +84,12 @@ check "nothing written on bad input" test ! -e X
 # before the scene is read, so a missing scene shows them without training).
 first_line() { head -n 1 "$T/out"; }
 expect 1 "preset fast" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset fast
-check "fast: lean with the decay, 3000 iterations, no restoration" test "$(first_line)" = \
-    "reconstruct, preset fast: 3000 sparse iterations (base decay, lean density control), no restoration (the sparse model only)"
+check "fast: lean with DropGaussian and the decay, 3000 iterations, no restoration" test "$(first_line)" = \
+    "reconstruct, preset fast: 3000 sparse iterations (base dropgaussian,decay, lean density control), no restoration (the sparse model only)"
 expect 1 "preset default" -- "$G" reconstruct --scene nowhere --interval 6 --out X
 # (the default restorer by the absolute path it was found at: the source tree's models/)
-check "default: lean 3DGS with the decay and the gated path" test "$(first_line | sed 's| /[^ ]*/models/| models/|')" = "reconstruct, \
-preset default: 8000 sparse iterations (base decay, lean density control), models/gaussvid-small.safetensors adapted to the \
+check "default: lean 3DGS with DropGaussian and the decay, the gated path" test "$(first_line | sed 's| /[^ ]*/models/| models/|')" = "reconstruct, \
+preset default: 8000 sparse iterations (base dropgaussian,decay, lean density control), models/gaussvid-small.safetensors adapted to the \
 scene (300 steps) where it has the views for it, its gate deciding restoration and refinement (1000 iterations at weight 0.3)"
 expect 1 "preset best" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset best --ckpt c.st
 check "best: 15000 iterations, the gated path" test "$(first_line)" = "reconstruct, preset best: 15000 sparse \
@@ -97,7 +97,7 @@ iterations (base 3dgs, reference density control), c.st adapted to the scene (30
 deciding restoration and refinement (1000 iterations at weight 0.3)"
 expect 1 "flags over the preset" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset fast --iters 77 \
     --densify reference --restore-with checkpoint --ckpt c.st --refine-iters 5
-check "every flag wins over fast" test "$(first_line)" = "reconstruct, preset fast: 77 sparse iterations (base decay, \
+check "every flag wins over fast" test "$(first_line)" = "reconstruct, preset fast: 77 sparse iterations (base dropgaussian,decay, \
 reference density control), restoration with c.st as it is (ungated), refinement 5 iterations at weight 0.3"
 expect 1 "mcmc" -- "$G" reconstruct --scene nowhere --interval 6 --out X --densify mcmc --no-restore
 check "with mcmc the base is plain 3DGS" test "$(first_line)" = \
@@ -221,7 +221,7 @@ check "refine recorded with its inputs" python3 -c "
 import json; r = json.load(open('R2/metrics.json'))['runs'][0]
 s = {s['name']: s for s in r['stages']}
 assert s['refine']['inputs'] == {'refine_iters': 41, 'refine_weight': 0.3}, s['refine']
-assert s['train']['inputs'] == {'iters': 60, 'densify': 'lean', 'regularize': 'decay', 'seed': 0, 'downscale': 1}, s['train']
+assert s['train']['inputs'] == {'iters': 60, 'densify': 'lean', 'regularize': 'dropgaussian,decay', 'seed': 0, 'downscale': 1}, s['train']
 assert r['inputs']['refine_iters'] == 41"
 # Another density control trains again (and so every later stage).
 expect 0 "other density control" -- "$G" reconstruct "${RC[@]}" --densify reference --out R2 --stop-after train
@@ -229,7 +229,7 @@ check "the training redone" grep -q 'n=6 train: made before with densify "lean",
 # Another base too.
 expect 0 "other base" -- "$G" reconstruct "${RC[@]}" --densify reference --base dropgaussian --out R2 --stop-after train
 check "the training redone for the base" \
-    grep -q 'n=6 train: made before with regularize "decay", now "dropgaussian": done again' "$T/err"
+    grep -q 'n=6 train: made before with regularize "dropgaussian,decay", now "dropgaussian": done again' "$T/err"
 expect 2 "bad base" -- "$G" reconstruct "${RC[@]}" --base fsgs,turbo --out X
 one_line "--base fsgs,turbo: expected 3dgs, corgs, fsgs, dropgaussian, segs, decay or a comma-separated list of the last five"
 # A folder from before "densify" and "regularize" were recorded was trained with the reference
@@ -511,7 +511,7 @@ check "the report links the sparse model" test "$(grep -c "Open the refined mode
 # A preset and a flag over it, recorded: fast (lean, no restoration) with 50 iterations.
 expect 0 "fast with 50 iterations" -- "$G" reconstruct "${RC0[@]}" --preset fast --iters 50 --out FA --stop-after evaluate
 check "the first line" test "$(first_line)" = \
-    "reconstruct, preset fast: 50 sparse iterations (base decay, lean density control), no restoration (the sparse model only)"
+    "reconstruct, preset fast: 50 sparse iterations (base dropgaussian,decay, lean density control), no restoration (the sparse model only)"
 check "the preset and its settings recorded" python3 -c "
 import json
 d = json.load(open('FA/metrics.json')); i = d['runs'][0]['inputs']

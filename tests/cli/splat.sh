@@ -48,18 +48,22 @@ check "unknown --densify exits 2" test $? -eq 2
 check "unknown --densify explained" grep -q "expected lean, reference or mcmc" "$tmp/err.txt"
 check "unknown --densify: no model" test ! -e "$tmp/x.ply"
 
-# Regularisers: the opacity decay to half the run is the default. In 1200 iterations it acts
-# from 501 to 600: the default is --regularize decay --decay-until 0.5 and another model than
-# plain 3DGS (--regularize none) or the decay to the end. With mcmc the default is plain (the
-# decay needs the lean or reference control). DropGaussian trains another model, the same for
-# the same seed; unknown, empty or repeated names are usage errors.
+# Regularisers: DropGaussian with the opacity decay to half the run is the default. In 1200
+# iterations the decay acts from 501 to 600: the default is --regularize dropgaussian,decay
+# --decay-until 0.5, another model than DropGaussian alone, plain 3DGS (--regularize none) or
+# the decay to the end. With mcmc the default is plain (the decay needs the lean or reference
+# control). DropGaussian trains another model, the same for the same seed; unknown, empty or
+# repeated names are usage errors.
 train "$tmp/dec_default.ply" --iters 1200 > /dev/null 2>&1
-train "$tmp/dec_half.ply" --iters 1200 --regularize decay --decay-until 0.5 > /dev/null 2>&1
-train "$tmp/dec_end.ply" --iters 1200 --regularize decay --decay-until 1 > /dev/null 2>&1
-train "$tmp/none.ply" --iters 1200 --regularize none > /dev/null 2>&1
-check "decay to half the run is the default" cmp -s "$tmp/dec_default.ply" "$tmp/dec_half.ply"
-check "the default is not plain 3DGS" test -s "$tmp/none.ply" -a -n "$(cmp "$tmp/dec_default.ply" "$tmp/none.ply")"
-check "the decay to the end is another model" test -s "$tmp/dec_end.ply" -a -n "$(cmp "$tmp/dec_default.ply" "$tmp/dec_end.ply")"
+train "$tmp/dec_half.ply" --iters 1200 --regularize decay,dropgaussian --decay-until 0.5 > /dev/null 2>&1
+train "$tmp/dec_end.ply" --iters 1200 --regularize dropgaussian,decay --decay-until 1 > /dev/null 2>&1
+train "$tmp/drop_only.ply" --iters 1200 --regularize dropgaussian > /dev/null 2>&1
+train "$tmp/none1200.ply" --iters 1200 --regularize none > /dev/null 2>&1
+check "dropgaussian with the decay to half the run is the default" cmp -s "$tmp/dec_default.ply" "$tmp/dec_half.ply"
+for other in none1200 drop_only dec_end; do
+    check "the default is not $other" test -s "$tmp/$other.ply" -a -n "$(cmp "$tmp/dec_default.ply" "$tmp/$other.ply")"
+done
+train "$tmp/none.ply" --regularize none > /dev/null 2>&1
 train "$tmp/mcmc_default.ply" --densify mcmc > /dev/null 2>&1
 train "$tmp/mcmc_none.ply" --densify mcmc --regularize none > /dev/null 2>&1
 check "with mcmc the default is plain 3DGS" cmp -s "$tmp/mcmc_default.ply" "$tmp/mcmc_none.ply"
@@ -74,7 +78,7 @@ done
 train "$tmp/drop1.ply" --regularize dropgaussian > /dev/null 2>&1
 train "$tmp/drop2.ply" --regularize dropgaussian > /dev/null 2>&1
 check "dropgaussian: same seed, same model" cmp -s "$tmp/drop1.ply" "$tmp/drop2.ply"
-check "dropgaussian is another model" test -s "$tmp/drop1.ply" -a -n "$(cmp "$tmp/a.ply" "$tmp/drop1.ply")"
+check "dropgaussian is another model" test -s "$tmp/drop1.ply" -a -n "$(cmp "$tmp/none.ply" "$tmp/drop1.ply")"
 for bad in dropout dropgaussian,dropgaussian "" dropgaussian, none,dropgaussian; do
     train "$tmp/x.ply" --regularize "$bad" > /dev/null 2> "$tmp/err.txt"
     check "--regularize '$bad' exits 2" test $? -eq 2
