@@ -53,8 +53,7 @@ static int apply_settings(const explicit_flags *x, gv_reconstruct_options *o)
         strcmp(x->base, "3dgs"))
         return gv_fail("--base %s: expected 3dgs, corgs, fsgs, dropgaussian, segs, decay or a comma-separated list of the last five",
                        x->base);
-    /* as in splat train: the decay needs the lean or reference control */
-    if (!x->base && o->densify == GV_DENSIFY_MCMC) o->regularize = 0;
+    if (!x->base && o->densify == GV_DENSIFY_MCMC) o->regularize = gv_splat_regularize_default(o->densify);
     if (x->iters != UNSET) o->iters = x->iters;
     if (x->refine_iters != UNSET) o->refine_iters = x->refine_iters;
     if (x->adapt_steps != UNSET) {

@@ -172,10 +172,7 @@ int cmd_splat_train(int argc, char **argv)
     opt.resolution_start = resolution_start;
     opt.resolution_full_at = resolution_full_at;
     opt.densify_mode = (gv_splat_densify_mode)mode;
-    /* The decay needs the lean or reference control (mcmc prunes and relocates its own way):
-     * with mcmc and no --regularize, plain 3DGS. */
-    if (!regularize) opt.regularize = opt.densify_mode == GV_DENSIFY_MCMC ? 0 : GV_REGULARIZE_USER;
-    else opt.regularize = gv_splat_regularize_parse(regularize);
+    opt.regularize = regularize ? gv_splat_regularize_parse(regularize) : gv_splat_regularize_default(opt.densify_mode);
     if (opt.regularize < 0) {
         fprintf(stderr, "gaussvid splat train: --regularize %s: expected " GV_REGULARIZE_NAMES "\n", regularize);
         return 2;

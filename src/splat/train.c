@@ -113,6 +113,11 @@ int gv_splat_regularize_parse(const char *list)
     }
 }
 
+int gv_splat_regularize_default(gv_splat_densify_mode mode)
+{
+    return mode == GV_DENSIFY_MCMC ? 0 : GV_REGULARIZE_USER;
+}
+
 void gv_splat_regularize_name(int set, char *buf, size_t n)
 {
     if (n == 0) return;

@@ -278,6 +278,9 @@ enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0, GV_REGULARIZE_FSGS = 1 << 1, GV_REGU
  * 15-cell table (docs/RESULTS.md section 5, "the user's default"). The library's default
  * stays plain 3DGS: `dataset build` and `adapt` train the paper's artifacts. */
 #define GV_REGULARIZE_USER (GV_REGULARIZE_DROPGAUSSIAN | GV_REGULARIZE_DECAY)
+/* The regularisers when the user names none: GV_REGULARIZE_USER, or none with mcmc (the
+ * decay needs the lean or reference control; mcmc prunes and relocates its own way). */
+int gv_splat_regularize_default(gv_splat_densify_mode mode);
 /* "none", or names separated by commas (each once) -> the set; -1 for anything else. */
 int gv_splat_regularize_parse(const char *list);
 /* The set as the parser reads it ("none", "dropgaussian", ...) into buf of size n. */
