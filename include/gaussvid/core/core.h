@@ -39,7 +39,7 @@ double gv_cpu_now(void);
  * On a terminal: one line redrawn in place with count, rate and ETA. Otherwise: a plain
  * line every few seconds. Nothing at all under --quiet. */
 typedef struct {
-    char label[48];
+    char label[96]; /* bench splat's run names reach about 60 characters */
     long total;
     long done;
     double start, last_draw;
