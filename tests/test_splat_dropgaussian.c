@@ -20,15 +20,18 @@ enum { IW = 40, IH = 24, NPIX = IW * IH * 3 };
 
 static void test_rate(void)
 {
-    CHECK(gv_splat_drop_rate(0, 100) == 0.0);
-    CHECK(gv_splat_drop_rate(50, 100) == 0.1);
-    CHECK(gv_splat_drop_rate(100, 100) == 0.2);
-    CHECK(gv_splat_drop_rate(2000, 8000) == 0.05);
-    CHECK(gv_splat_drop_rate(8000, 8000) == 0.2);
-    CHECK(gv_splat_drop_rate(9000, 8000) == 0.2); /* past the run: the last rate */
-    CHECK_NEAR(gv_splat_drop_rate(1, 8000), 2.5e-5, 1e-19);
+    CHECK(gv_splat_drop_rate(0, 100, 0.2) == 0.0);
+    CHECK(gv_splat_drop_rate(50, 100, 0.2) == 0.1);
+    CHECK(gv_splat_drop_rate(100, 100, 0.2) == 0.2);
+    CHECK(gv_splat_drop_rate(2000, 8000, 0.2) == 0.05);
+    CHECK(gv_splat_drop_rate(8000, 8000, 0.2) == 0.2);
+    CHECK(gv_splat_drop_rate(9000, 8000, 0.2) == 0.2); /* past the run: the last rate */
+    CHECK(gv_splat_drop_rate(4000, 8000, 0.1) == 0.05);
+    CHECK(gv_splat_drop_rate(8000, 8000, 0.1) == 0.1);
+    CHECK(gv_splat_drop_rate(8000, 8000, 0) == 0);
+    CHECK_NEAR(gv_splat_drop_rate(1, 8000, 0.2), 2.5e-5, 1e-19);
     for (int it = 1; it < 8000; it++) /* linear: equal steps */
-        CHECK_NEAR(gv_splat_drop_rate(it + 1, 8000) - gv_splat_drop_rate(it, 8000), 2.5e-5, 1e-15);
+        CHECK_NEAR(gv_splat_drop_rate(it + 1, 8000, 0.2) - gv_splat_drop_rate(it, 8000, 0.2), 2.5e-5, 1e-15);
 }
 
 /* The --regularize list: names, order-free, each once; the name round-trips. */

@@ -54,6 +54,7 @@ int cmd_splat_train(int argc, char **argv)
         {"segs-interval", GV_FLAG_INT, &segs_interval, "N", "segs: iterations between the pseudo-view renders that decide the perturbation (default 500)", 0},
         {"decay-factor", GV_FLAG_DOUBLE, &opt.decay_factor, "F", "decay: the opacities' factor per iteration (default 0.995)", 0},
         {"decay-until", GV_FLAG_DOUBLE, &opt.decay_until, "S", "decay: only up to this share of the iterations, in (0, 1] (default 0.5; 1: to the end)", 0},
+        {"drop-rate", GV_FLAG_DOUBLE, &opt.drop_rate, "R", "dropgaussian: the share left out at the last iteration, in [0, 1) (default 0.2)", 0},
         {"fsgs-distance", GV_FLAG_DOUBLE, &fsgs_distance, "X", "fsgs: unpool where the proximity score exceeds X x the scene extent (default 0.1)", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
@@ -86,7 +87,7 @@ int cmd_splat_train(int argc, char **argv)
         "             end, with no opacity reset and no screen-size pruning (lean,\n"
         "             reference)\n"
         "  dropgaussian  each training render leaves out a random share of the Gaussians\n"
-        "             (0 growing linearly to 0.2 at the last iteration) and scales the\n"
+        "             (0 growing linearly to --drop-rate at the last iteration) and scales the\n"
         "             opacity of the others by 1 / (1 - share); renders are unchanged\n"
         "  fsgs       FSGS's unpooling: at each densification step, a Gaussian whose 3\n"
         "             nearest are far (root mean square distance > --fsgs-distance x\n"
@@ -147,6 +148,10 @@ int cmd_splat_train(int argc, char **argv)
     }
     if (!(opt.decay_factor > 0 && opt.decay_factor < 1) || !(opt.decay_until > 0 && opt.decay_until <= 1)) {
         fprintf(stderr, "gaussvid splat train: --decay-factor must be in (0, 1) and --decay-until in (0, 1]\n");
+        return 2;
+    }
+    if (!(opt.drop_rate >= 0 && opt.drop_rate < 1)) {
+        fprintf(stderr, "gaussvid splat train: --drop-rate must be in [0, 1)\n");
         return 2;
     }
     if (!(fsgs_distance > 0) || !(corgs_distance > 0)) {

@@ -11,11 +11,11 @@
 #include "gaussvid/core/core.h"
 #include "gaussvid/splat/splat_train.h"
 
-double gv_splat_drop_rate(int iteration, int iterations)
+double gv_splat_drop_rate(int iteration, int iterations, double final)
 {
     if (iterations < 1 || iteration < 0) return 0;
     if (iteration > iterations) iteration = iterations;
-    return GV_DROP_RATE_MAX * (double)iteration / (double)iterations;
+    return final * (double)iteration / (double)iterations;
 }
 
 int gv_splat_drop_draw(int n, double rate, uint64_t seed, float *scale)

@@ -62,6 +62,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     /* Half the iterations, not the release's whole run: decay to the end costs up to 1.7 dB
      * where the views are many (docs/RESULTS.md section 5, "opacity decay"). */
     opt->decay_until = 0.5;
+    opt->drop_rate = 0.2; /* the DropGaussian paper's */
     opt->resolution_full_at = 0.5;
 }
 
@@ -164,6 +165,8 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
         return gv_fail("train: the opacity decay factor is %g; it must be in (0, 1)", opt->decay_factor);
     if ((opt->regularize & GV_REGULARIZE_DECAY) && !(opt->decay_until > 0 && opt->decay_until <= 1))
         return gv_fail("train: the opacity decay's end is %g of the iterations; it must be in (0, 1]", opt->decay_until);
+    if ((opt->regularize & GV_REGULARIZE_DROPGAUSSIAN) && !(opt->drop_rate >= 0 && opt->drop_rate < 1))
+        return gv_fail("train: the DropGaussian rate is %g; it must be in [0, 1)", opt->drop_rate);
     if ((opt->regularize & GV_REGULARIZE_CORGS) && opt->densify_mode == GV_DENSIFY_MCMC)
         return gv_fail("train: corgs co-prunes at the densification steps of lean or reference density control, not mcmc");
     if ((opt->regularize & GV_REGULARIZE_TWO_FIELDS) && !(opt->corgs_pseudo_weight >= 0 && isfinite(opt->corgs_pseudo_weight)))
@@ -470,7 +473,7 @@ int gv_splat_trainer_forward_backward(gv_splat_trainer *t)
     double t0 = gv_now();
     const float *scale = NULL; /* DropGaussian: this render's opacity scales */
     if (t->opt.regularize & GV_REGULARIZE_DROPGAUSSIAN) {
-        double rate = gv_splat_drop_rate(it, t->opt.iterations);
+        double rate = gv_splat_drop_rate(it, t->opt.iterations, t->opt.drop_rate);
         t->dropped += gv_splat_drop_draw(t->params.n, rate,
                                          stream_seed(t->opt.seed, STREAM_DROP) + (uint64_t)it,
                                          t->drop_scale);

@@ -91,7 +91,7 @@ static int run(gv_splat_trainer *t, gv_splat_trainer *b, gv_splat_corgs *c, gv_s
                 t->opt.fsgs_distance, t->unpooled);
     if (t->opt.regularize & GV_REGULARIZE_DROPGAUSSIAN)
         gv_info("DropGaussian: rate up to %.2f, %.1f Gaussians left out per render on average",
-                gv_splat_drop_rate(t->iteration, t->opt.iterations),
+                gv_splat_drop_rate(t->iteration, t->opt.iterations, t->opt.drop_rate),
                 (double)t->dropped / (t->iteration > 0 ? t->iteration : 1));
     return 0;
 }

@@ -79,6 +79,17 @@ train "$tmp/drop1.ply" --regularize dropgaussian > /dev/null 2>&1
 train "$tmp/drop2.ply" --regularize dropgaussian > /dev/null 2>&1
 check "dropgaussian: same seed, same model" cmp -s "$tmp/drop1.ply" "$tmp/drop2.ply"
 check "dropgaussian is another model" test -s "$tmp/drop1.ply" -a -n "$(cmp "$tmp/none.ply" "$tmp/drop1.ply")"
+# --drop-rate sets the share at the last iteration: 0 leaves nothing out and scales by 1,
+# which is plain 3DGS to the byte; another share is another model.
+train "$tmp/drop_0.ply" --regularize dropgaussian --drop-rate 0 > /dev/null 2>&1
+check "dropgaussian --drop-rate 0 is plain 3DGS" cmp -s "$tmp/drop_0.ply" "$tmp/none.ply"
+train "$tmp/drop_05.ply" --regularize dropgaussian --drop-rate 0.5 > /dev/null 2>&1
+check "--drop-rate 0.5 is another model" test -s "$tmp/drop_05.ply" -a -n "$(cmp "$tmp/drop1.ply" "$tmp/drop_05.ply")"
+for bad in "--drop-rate 1" "--drop-rate -0.1"; do
+    train "$tmp/x.ply" $bad > /dev/null 2> "$tmp/err.txt"
+    check "$bad exits 2" test $? -eq 2
+    check "$bad explained in one line" test "$(cat "$tmp/err.txt")" = "gaussvid splat train: --drop-rate must be in [0, 1)"
+done
 for bad in dropout dropgaussian,dropgaussian "" dropgaussian, none,dropgaussian; do
     train "$tmp/x.ply" --regularize "$bad" > /dev/null 2> "$tmp/err.txt"
     check "--regularize '$bad' exits 2" test $? -eq 2

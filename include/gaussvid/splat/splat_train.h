@@ -185,12 +185,11 @@ void gv_splat_mcmc_regularize(const gv_gaussians *g, const gv_splat_mcmc_params 
 
 /* ---- dropgaussian.c ---------------------------------------------------------------------
  * DropGaussian (Park et al., CVPR 2025): each training render leaves out a random share of
- * the Gaussians, the rate growing linearly to GV_DROP_RATE_MAX over the run, and multiplies
+ * the Gaussians, the rate growing linearly to options.drop_rate over the run, and multiplies
  * the opacity of the kept ones by 1 / (1 - rate), so that the expected render is the full
  * one; renders outside training are untouched. */
-#define GV_DROP_RATE_MAX 0.2
-/* GV_DROP_RATE_MAX x iteration / iterations (iteration 1 .. iterations). */
-double gv_splat_drop_rate(int iteration, int iterations);
+/* final x iteration / iterations (iteration 1 .. iterations; the last rate after them). */
+double gv_splat_drop_rate(int iteration, int iterations, double final);
 /* scale[i] for i < n: 0 (dropped, with probability rate) or 1 / (1 - rate), from the
  * uniform number (seed, i): the same whatever the thread count. Returns the number dropped.
  * rate must be in [0, 1). */
@@ -308,6 +307,8 @@ typedef struct {
                                  * densify_from (0.995, Binocular3DGS's) */
     double decay_until;         /* decay: ... up to this share of the iterations (0.5; 1: to
                                  * the end, the release's) */
+    double drop_rate;           /* DropGaussian: the share left out at the last iteration,
+                                 * in [0, 1) (0.2, the paper's) */
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
