@@ -24,7 +24,8 @@ typedef struct {
     int modes;             /* bit 1 << m for each density control m to run (gv_splat_densify_mode) */
     int regularize;        /* the lean runs' regularisers (GV_REGULARIZE_* bits; splat train's
                             * default GV_REGULARIZE_USER); the reference and mcmc run plain */
-    int resolution_start;  /* 0, or one more run: lean with this resolution schedule (2, 4, 8) */
+    int resolution_start;  /* 0, or one more run: lean with this resolution schedule (1: full
+                            * size, 2, 8; the default run has GV_RESOLUTION_USER) */
 } gv_bench_splat_options;
 /* Phase and kernel-stage times, Gaussian counts and final quality of a training run. */
 int gv_bench_splat(const gv_bench_splat_options *o, FILE *out);

@@ -126,7 +126,7 @@ typedef struct {
     int final_gaussians;
     gv_splat_densify_mode mode;
     int regularize;        /* GV_REGULARIZE_* bits */
-    int resolution_start;  /* 0, or the resolution schedule's first factor */
+    int resolution_start;  /* the resolution schedule's first factor (0 or 1: full size) */
     long peak_rss_kib;     /* of this run alone (-1 when the kernel cannot tell) */
 } scene_result;
 
@@ -174,14 +174,16 @@ static int evaluate(const gv_splat_trainer *t, const gv_scene *scene, int interv
     return ok;
 }
 
-/* splat train's default: lean with the user's regularisers, at full resolution throughout. */
+/* splat train's default: lean with the user's regularisers and resolution schedule. */
 static int is_default(const scene_result *r)
 {
-    return r->mode == GV_DENSIFY_LEAN && r->regularize == GV_REGULARIZE_USER && r->resolution_start == 0;
+    return r->mode == GV_DENSIFY_LEAN && r->regularize == GV_REGULARIZE_USER &&
+           r->resolution_start == GV_RESOLUTION_USER;
 }
 
-/* What a run is: "lean + dropgaussian,decay (default)", "reference", "mcmc",
- * "lean + dropgaussian,decay + 1/4 schedule", "lean" (with --regularize none). */
+/* What a run is: "lean + dropgaussian,decay + 1/4 schedule (default)", "reference", "mcmc",
+ * "lean + dropgaussian,decay" (--resolution-schedule 1), "lean + 1/4 schedule" (with
+ * --regularize none). */
 static void run_name(const scene_result *r, char *buf, size_t n)
 {
     char with[80] = "", names[64];
@@ -339,7 +341,7 @@ static const scene_result *reference_of(const scene_result *results, int n, cons
 {
     for (int j = 0; j < n; j++)
         if (strcmp(results[j].name, r->name) == 0 && results[j].mode == GV_DENSIFY_REFERENCE &&
-            results[j].resolution_start == 0)
+            results[j].resolution_start <= 1)
             return &results[j];
     return NULL;
 }
@@ -443,11 +445,13 @@ int gv_bench_splat(const gv_bench_splat_options *o, FILE *out)
     if (!results) return gv_fail("bench splat: out of memory");
     int n_results = 0;
     for (int k = 0; k < n_dirs; k++)
-        for (int m = 0; m < 4; m++) { /* the modes asked for, then the default with the schedule */
+        for (int m = 0; m < 4; m++) { /* the modes asked for, then lean with the other schedule */
             if (m < 3 ? !(o->modes >> modes[m] & 1) : o->resolution_start == 0) continue;
+            /* lean trains as splat train does, with the user's schedule; reference and mcmc
+             * as the paper's, at full size */
+            int schedule = m == 3 ? o->resolution_start : modes[m] == GV_DENSIFY_LEAN ? GV_RESOLUTION_USER : 1;
             scene_result *r = &results[n_results];
-            if (bench_scene(dirs[k], o, m < 3 ? modes[m] : GV_DENSIFY_LEAN,
-                            m < 3 ? 0 : o->resolution_start, r) != 0) {
+            if (bench_scene(dirs[k], o, m < 3 ? modes[m] : GV_DENSIFY_LEAN, schedule, r) != 0) {
                 free(results);
                 cJSON_Delete(all);
                 return -1;
@@ -482,15 +486,16 @@ int gv_bench_splat_command(int argc, char **argv)
         {"sparse-adam", GV_FLAG_BOOL, &o.sparse_adam, NULL, "lean and reference: Adam on the visible Gaussians only", 0},
         {"densify", GV_FLAG_LIST, &densify, "MODE...", "density controls to run, of lean, reference, mcmc (default lean,reference)", 0},
         {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "the lean runs' regularisers, as splat train's (default dropgaussian,decay; none: plain)", 0},
-        {"resolution-schedule", GV_FLAG_INT, &o.resolution_start, "K", "one more run: lean with splat train's --resolution-schedule K (2, 4 or 8)", 0},
+        {"resolution-schedule", GV_FLAG_INT, &o.resolution_start, "K", "one more run: lean with splat train's --resolution-schedule K (1: full size throughout, 2 or 8)", 0},
     };
     const gv_command_spec spec = {
         "bench splat", NULL, "sparse-view 3DGS training speed: phases, kernel stages, quality",
         "Trains on every 6th frame of each scene for 8000 iterations (the dataset's early stop),\n"
-        "once with each density control of --densify: by default lean with DropGaussian and\n"
-        "the opacity decay (--regularize), splat train's default, and the paper's reference\n"
-        "(--densify reference, plain 3DGS); with --resolution-schedule K once more with lean\n"
-        "and that schedule. Prints for each run the median ms per iteration of each phase,\n"
+        "once with each density control of --densify: by default lean with DropGaussian, the\n"
+        "opacity decay (--regularize) and the first iterations at 1/4 of the size, splat\n"
+        "train's default, and the paper's reference (--densify reference, plain 3DGS, full\n"
+        "size); with --resolution-schedule K once more with lean and that schedule (1: full\n"
+        "size throughout). Prints for each run the median ms per iteration of each phase,\n"
         "the Gaussian count and the median time of each kernel stage every 1000 iterations,\n"
         "the seconds for the run, its peak RSS and the final held-out PSNR / SSIM. Then\n"
         "every run side by side (wall and CPU seconds, both as a ratio of the reference's on\n"
@@ -518,9 +523,9 @@ int gv_bench_splat_command(int argc, char **argv)
         fprintf(stderr, "gaussvid bench splat: --regularize %s: expected " GV_REGULARIZE_NAMES "\n", regularize);
         return 2;
     }
-    if (o.resolution_start != 0 && o.resolution_start != 2 && o.resolution_start != 4 &&
+    if (o.resolution_start != 0 && o.resolution_start != 1 && o.resolution_start != 2 &&
         o.resolution_start != 8) {
-        fprintf(stderr, "gaussvid bench splat: --resolution-schedule takes 2, 4 or 8\n");
+        fprintf(stderr, "gaussvid bench splat: --resolution-schedule takes 1, 2 or 8 (4 is the default run's)\n");
         return 2;
     }
     if (o.iterations < 1 || o.interval < 1) {

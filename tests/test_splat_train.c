@@ -437,6 +437,8 @@ static void test_decay(const tiny_scene *s)
     gv_splat_train_options o;
     short_options(&o, 200);
     CHECK(o.decay_until == 0.5); /* the default: half the run */
+    CHECK(o.drop_rate == GV_DROP_RATE && GV_DROP_RATE == 0.1);
+    CHECK(o.resolution_start == 0); /* the library trains at full size; splat train from 1/4 */
     o.regularize = GV_REGULARIZE_DECAY;
     o.decay_until = 1; /* the release's: to the end */
     CHECK(gv_splat_regularize_parse("dropgaussian,decay") == (GV_REGULARIZE_DROPGAUSSIAN | GV_REGULARIZE_DECAY));

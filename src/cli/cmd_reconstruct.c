@@ -31,7 +31,7 @@ static int default_ckpt(char *path, size_t size)
 #define UNSET INT_MIN
 typedef struct {
     const char *preset, *densify, *base, *restore_with;
-    int iters, refine_iters, adapt_steps, adapt, no_restore;
+    int iters, refine_iters, adapt_steps, adapt, no_restore, resolution;
 } explicit_flags;
 
 /* defaults, the preset, then the flags given; one line on a bad or contradictory value. */
@@ -54,6 +54,11 @@ static int apply_settings(const explicit_flags *x, gv_reconstruct_options *o)
         return gv_fail("--base %s: expected 3dgs, corgs, fsgs, dropgaussian, segs, decay or a comma-separated list of the last five",
                        x->base);
     if (!x->base && o->densify == GV_DENSIFY_MCMC) o->regularize = gv_splat_regularize_default(o->densify);
+    if (x->resolution != UNSET) {
+        if (x->resolution != 1 && x->resolution != 2 && x->resolution != 4 && x->resolution != 8)
+            return gv_fail("--resolution-schedule %d: expected 1 (full size throughout), 2, 4 or 8", x->resolution);
+        o->resolution_start = x->resolution;
+    }
     if (x->iters != UNSET) o->iters = x->iters;
     if (x->refine_iters != UNSET) o->refine_iters = x->refine_iters;
     if (x->adapt_steps != UNSET) {
@@ -76,10 +81,11 @@ static void print_settings(const gv_reconstruct_options *o)
         snprintf(restore, sizeof restore, "%s adapted to the scene (%ld steps) where it has the views for it, its gate "
                  "deciding restoration and refinement (%d iterations at weight %g)", o->ckpt,
                  (long)o->adapt_options.train.steps, o->refine_iters, o->refine_weight);
-    char base[64] = "3dgs";
+    char base[64] = "3dgs", schedule[48] = "";
     if (o->regularize) gv_splat_regularize_name(o->regularize, base, sizeof base);
-    printf("reconstruct, preset %s: %d sparse iterations (base %s, %s density control), %s\n", o->preset, o->iters,
-           base, gv_splat_densify_mode_name(o->densify), restore);
+    if (o->resolution_start > 1) snprintf(schedule, sizeof schedule, ", from 1/%d of the size", o->resolution_start);
+    printf("reconstruct, preset %s: %d sparse iterations (base %s, %s density control%s), %s\n", o->preset, o->iters,
+           base, gv_splat_densify_mode_name(o->densify), schedule, restore);
     fflush(stdout);
 }
 
@@ -96,7 +102,7 @@ int cmd_reconstruct(int argc, char **argv)
     o.ckpt = NULL;
     const char *intervals = NULL;
     int seed = 0, downscale = -1; /* -1: not given, chosen from the images' size */
-    explicit_flags x = {NULL, NULL, NULL, NULL, UNSET, UNSET, UNSET, 0, 0};
+    explicit_flags x = {NULL, NULL, NULL, NULL, UNSET, UNSET, UNSET, 0, 0, UNSET};
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &o.scene_dir, "DIR", "the scene folder (images/ with sparse/0 or transforms.json; gaussvid scene colmap makes one from photos)", 1},
         {"interval", GV_FLAG_STRING, &intervals, "N[,N...|A:B:S]", "sparse views: frames 0, N, 2N, ... train, the held-out frames between them are restored (N >= 4); N = 1: every view trains and a smooth path between them is restored; a list or a range a:b:s runs each", 1},
@@ -109,6 +115,7 @@ int cmd_reconstruct(int argc, char **argv)
         {"iters", GV_FLAG_INT, &x.iters, "N", "sparse 3DGS iterations (default 8000; preset fast 3000, best 15000)", 0},
         {"base", GV_FLAG_STRING, &x.base, "NAME", "the sparse model, named as the paper's Table 1 names its bases: 3dgs (default: plain 3DGS), corgs (CoR-GS: two fields co-pruned and pulled together at cameras between the views; about 3x the time), fsgs (FSGS's unpooling, without its depth network), dropgaussian, segs (SE-GS: corgs's two fields and pseudo-view term without co-pruning, the second field perturbed where the model's pseudo views are uncertain), decay (Binocular3DGS's opacity decay), or a comma-separated list of the last five (docs/SPLAT_TRAINING.md)", 0},
         {"densify", GV_FLAG_STRING, &x.densify, "MODE", "its density control: lean (default: the reference's mean quality in half its time), reference (the paper's) or mcmc", 0},
+        {"resolution-schedule", GV_FLAG_INT, &x.resolution, "K", "its first iterations at 1/K of the size, as splat train's: 1 (full size throughout; preset best), 2, 4 (default) or 8", 0},
         {"refine-iters", GV_FLAG_INT, &x.refine_iters, "N", "refinement iterations (default 1000)", 0},
         {"refine-weight", GV_FLAG_DOUBLE, &o.refine_weight, "W", "loss weight of the restored frames in the refinement, in (0, 1]; training views weigh 1 (default 0.3)", 0},
         {"adapt-steps", GV_FLAG_INT, &x.adapt_steps, "N", "the adaptation's fine-tuning steps (default 300)", 0},

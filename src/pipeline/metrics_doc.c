@@ -105,6 +105,7 @@ static cJSON *inputs_json(const gv_reconstruct_options *o)
     char regularize[64];
     gv_splat_regularize_name(o->regularize, regularize, sizeof regularize);
     cJSON_AddStringToObject(j, "regularize", regularize);
+    cJSON_AddNumberToObject(j, "resolution_schedule", o->resolution_start > 1 ? o->resolution_start : 1);
     cJSON_AddNumberToObject(j, "refine_iters", o->refine_iters);
     cJSON_AddNumberToObject(j, "refine_weight", o->refine_weight);
     cJSON_AddStringToObject(j, "checkpoint", o->ckpt);
@@ -341,6 +342,9 @@ int pipeline_stage_done(const pipeline_run *r, const char *name, const char *key
         /* ... and before "regularize" was, with none. */
         if (was && cJSON_GetObjectItem(now, "regularize") && !cJSON_GetObjectItem(was, "regularize"))
             cJSON_AddStringToObject(was, "regularize", "none");
+        /* ... and before "resolution_schedule" was, at full size. */
+        if (was && cJSON_GetObjectItem(now, "resolution_schedule") && !cJSON_GetObjectItem(was, "resolution_schedule"))
+            cJSON_AddNumberToObject(was, "resolution_schedule", 1);
         int same = was && cJSON_Compare(was, now, 1);
         if (!same) describe_difference(was, now, why, size);
         cJSON_Delete(now), cJSON_Delete(was);

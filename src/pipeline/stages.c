@@ -41,7 +41,7 @@ typedef struct {
 } stage;
 
 static const stage STAGES[] = {
-    {"train", pipeline_train, always, "iters densify regularize seed downscale", {"sparse.ply", "sparse.splat"}, NULL, NULL},
+    {"train", pipeline_train, always, "iters densify regularize resolution_schedule seed downscale", {"sparse.ply", "sparse.splat"}, NULL, NULL},
     {"render", pipeline_render, always, "", {"frames/render"}, NULL, NULL},
     {"adapt", pipeline_adapt, adapting, "checkpoint adapt_steps adapt_config", {"restorer.safetensors"}, NULL, NULL},
     {"restore", pipeline_restore, restoring, "checkpoint restore_with seed", {"frames/restored"}, "restoration", "clips"},
@@ -66,6 +66,7 @@ void gv_reconstruct_defaults(gv_reconstruct_options *o)
     o->iters = 8000;
     o->densify = GV_DENSIFY_LEAN; /* the user's model (issue 38): the reference's quality, half its time */
     o->regularize = GV_REGULARIZE_USER;
+    o->resolution_start = GV_RESOLUTION_USER;
     o->refine_iters = 1000;
     o->refine_weight = 0.3;
     o->restore_with = GV_RESTORE_ADAPTED;

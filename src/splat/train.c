@@ -62,7 +62,7 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
     /* Half the iterations, not the release's whole run: decay to the end costs up to 1.7 dB
      * where the views are many (docs/RESULTS.md section 5, "opacity decay"). */
     opt->decay_until = 0.5;
-    opt->drop_rate = 0.2; /* the DropGaussian paper's */
+    opt->drop_rate = GV_DROP_RATE;
     opt->resolution_full_at = 0.5;
 }
 

@@ -25,22 +25,25 @@ check "table has checkpoint rows" test "$rows" -ge 5
 check "table has the phases" grep -q "median ms per iteration: render" "$tmp/table.txt"
 check "table has the quality" grep -q "held-out PSNR" "$tmp/table.txt"
 check "table compares the default with the reference" \
-    test "$(grep -cE '^\| scene \| (lean \+ dropgaussian,decay \(default\)|reference) \| [0-9.]+ \| [0-9.]+ \| [0-9.]+ \| [0-9.]+ \|' "$tmp/table.txt")" -eq 2
+    test "$(grep -cE '^\| scene \| (lean \+ dropgaussian,decay \+ 1/4 schedule \(default\)|reference) \| [0-9.]+ \| [0-9.]+ \| [0-9.]+ \| [0-9.]+ \|' "$tmp/table.txt")" -eq 2
 check "the reference's ratios are 1" grep -qE '^\| scene \| reference \| [0-9.]+ \| [0-9.]+ \| 1.00 \| 1.00 \|' "$tmp/table.txt"
-check "the default's ratio line" grep -qE '^scene: lean \+ dropgaussian,decay \(default\) / reference: wall [0-9.]+, CPU [0-9.]+; held-out PSNR' "$tmp/table.txt"
+check "the default's ratio line" grep -qE '^scene: lean \+ dropgaussian,decay \+ 1/4 schedule \(default\) / reference: wall [0-9.]+, CPU [0-9.]+; held-out PSNR' "$tmp/table.txt"
 check "the time target is not judged at 20 iterations" \
     grep -q "^scene: time target not judged: this run is 20 iterations, interval 6, 48x32, 1 threads" "$tmp/table.txt"
-"$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet --resolution-schedule 4 > "$tmp/res.txt"
+"$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet --resolution-schedule 1 > "$tmp/res.txt"
 check "--resolution-schedule adds a run" test "$(grep -cE '^\| scene \| [a-z][^|]* \| [0-9.]+ \| ' "$tmp/res.txt")" -eq 3
-check "the scheduled run is named" grep -qE '^\| scene \| lean \+ dropgaussian,decay \+ 1/4 schedule \| ' "$tmp/res.txt"
+check "the full-size run is named" grep -qE '^\| scene \| lean \+ dropgaussian,decay \| ' "$tmp/res.txt"
+check "the default's line is still one" test "$(grep -c ' (default) / reference' "$tmp/res.txt")" -eq 1
 "$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet --regularize none > "$tmp/none.txt"
-check "--regularize none: plain lean, not the default" grep -qE '^\| scene \| lean \| [0-9.]+ \| ' "$tmp/none.txt"
+check "--regularize none: plain lean, not the default" grep -qE '^\| scene \| lean \+ 1/4 schedule \| [0-9.]+ \| ' "$tmp/none.txt"
 check "--regularize none: no default's line" test -z "$(grep ' (default) / reference' "$tmp/none.txt")"
 "$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --regularize decay,turbo 2> "$tmp/err.txt"
 check "unknown regulariser exits 2" test $? -eq 2
 check "unknown regulariser named" grep -q "decay,turbo: expected none or a comma-separated list" "$tmp/err.txt"
-"$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --resolution-schedule 3 2> /dev/null
-check "--resolution-schedule 3 exits 2" test $? -eq 2
+for k in 3 4; do # 4 is the default run's
+    "$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --resolution-schedule $k 2> /dev/null
+    check "--resolution-schedule $k exits 2" test $? -eq 2
+done
 "$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --threads 1 --quiet --densify mcmc > "$tmp/mcmc.txt"
 check "--densify mcmc runs one" test "$(grep -c 'density control mcmc' "$tmp/mcmc.txt")" -eq 1
 "$gaussvid" bench splat --scene "$tmp/scene" --iters 20 --densify lean,dense 2> "$tmp/err.txt"

@@ -84,12 +84,12 @@ check "nothing written on bad input" test ! -e X
 # before the scene is read, so a missing scene shows them without training).
 first_line() { head -n 1 "$T/out"; }
 expect 1 "preset fast" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset fast
-check "fast: lean with DropGaussian and the decay, 3000 iterations, no restoration" test "$(first_line)" = \
-    "reconstruct, preset fast: 3000 sparse iterations (base dropgaussian,decay, lean density control), no restoration (the sparse model only)"
+check "fast: lean with DropGaussian and the decay from 1/4 of the size, 3000 iterations, no restoration" test "$(first_line)" = \
+    "reconstruct, preset fast: 3000 sparse iterations (base dropgaussian,decay, lean density control, from 1/4 of the size), no restoration (the sparse model only)"
 expect 1 "preset default" -- "$G" reconstruct --scene nowhere --interval 6 --out X
 # (the default restorer by the absolute path it was found at: the source tree's models/)
-check "default: lean 3DGS with DropGaussian and the decay, the gated path" test "$(first_line | sed 's| /[^ ]*/models/| models/|')" = "reconstruct, \
-preset default: 8000 sparse iterations (base dropgaussian,decay, lean density control), models/gaussvid-small.safetensors adapted to the \
+check "default: lean 3DGS with DropGaussian and the decay from 1/4 of the size, the gated path" test "$(first_line | sed 's| /[^ ]*/models/| models/|')" = "reconstruct, \
+preset default: 8000 sparse iterations (base dropgaussian,decay, lean density control, from 1/4 of the size), models/gaussvid-small.safetensors adapted to the \
 scene (300 steps) where it has the views for it, its gate deciding restoration and refinement (1000 iterations at weight 0.3)"
 expect 1 "preset best" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset best --ckpt c.st
 check "best: 15000 iterations, the gated path" test "$(first_line)" = "reconstruct, preset best: 15000 sparse \
@@ -98,10 +98,15 @@ deciding restoration and refinement (1000 iterations at weight 0.3)"
 expect 1 "flags over the preset" -- "$G" reconstruct --scene nowhere --interval 6 --out X --preset fast --iters 77 \
     --densify reference --restore-with checkpoint --ckpt c.st --refine-iters 5
 check "every flag wins over fast" test "$(first_line)" = "reconstruct, preset fast: 77 sparse iterations (base dropgaussian,decay, \
-reference density control), restoration with c.st as it is (ungated), refinement 5 iterations at weight 0.3"
+reference density control, from 1/4 of the size), restoration with c.st as it is (ungated), refinement 5 iterations at weight 0.3"
 expect 1 "mcmc" -- "$G" reconstruct --scene nowhere --interval 6 --out X --densify mcmc --no-restore
 check "with mcmc the base is plain 3DGS" test "$(first_line)" = \
-    "reconstruct, preset default: 8000 sparse iterations (base 3dgs, mcmc density control), no restoration (the sparse model only)"
+    "reconstruct, preset default: 8000 sparse iterations (base 3dgs, mcmc density control, from 1/4 of the size), no restoration (the sparse model only)"
+expect 1 "full size" -- "$G" reconstruct --scene nowhere --interval 6 --out X --resolution-schedule 1 --no-restore
+check "--resolution-schedule 1: full size throughout" test "$(first_line)" = \
+    "reconstruct, preset default: 8000 sparse iterations (base dropgaussian,decay, lean density control), no restoration (the sparse model only)"
+expect 2 "bad schedule" -- "$G" reconstruct --scene nowhere --interval 6 --out X --resolution-schedule 3
+one_line "--resolution-schedule 3: expected 1 (full size throughout), 2, 4 or 8"
 check "nothing written for a missing scene" test ! -e X
 
 # Stage by stage: --stop-after stops, the next run continues.
@@ -221,7 +226,7 @@ check "refine recorded with its inputs" python3 -c "
 import json; r = json.load(open('R2/metrics.json'))['runs'][0]
 s = {s['name']: s for s in r['stages']}
 assert s['refine']['inputs'] == {'refine_iters': 41, 'refine_weight': 0.3}, s['refine']
-assert s['train']['inputs'] == {'iters': 60, 'densify': 'lean', 'regularize': 'dropgaussian,decay', 'seed': 0, 'downscale': 1}, s['train']
+assert s['train']['inputs'] == {'iters': 60, 'densify': 'lean', 'regularize': 'dropgaussian,decay', 'resolution_schedule': 4, 'seed': 0, 'downscale': 1}, s['train']
 assert r['inputs']['refine_iters'] == 41"
 # Another density control trains again (and so every later stage).
 expect 0 "other density control" -- "$G" reconstruct "${RC[@]}" --densify reference --out R2 --stop-after train
@@ -232,17 +237,18 @@ check "the training redone for the base" \
     grep -q 'n=6 train: made before with regularize "dropgaussian,decay", now "dropgaussian": done again' "$T/err"
 expect 2 "bad base" -- "$G" reconstruct "${RC[@]}" --base fsgs,turbo --out X
 one_line "--base fsgs,turbo: expected 3dgs, corgs, fsgs, dropgaussian, segs, decay or a comma-separated list of the last five"
-# A folder from before "densify" and "regularize" were recorded was trained with the reference
-# and no regulariser: kept for those settings.
+# A folder from before "densify", "regularize" and "resolution_schedule" were recorded was
+# trained with the reference, no regulariser, at full size: kept for those settings.
 cp -r R R3
 python3 -c "
 import json; d = json.load(open('R3/metrics.json'))
 for run in d['runs']:
-    run['inputs'].pop('densify'), run['inputs'].pop('regularize')
-    for s in run['stages']: s['inputs'].pop('densify', None), s['inputs'].pop('regularize', None)
+    for k in ('densify', 'regularize', 'resolution_schedule'): run['inputs'].pop(k)
+    for s in run['stages']:
+        for k in ('densify', 'regularize', 'resolution_schedule'): s['inputs'].pop(k, None)
 json.dump(d, open('R3/metrics.json', 'w'))"
 expect 0 "a folder from before densify" -- "$G" reconstruct "${RC[@]}" --densify reference --base 3dgs --out R3 \
-    --stop-after train
+    --resolution-schedule 1 --stop-after train
 check "its training kept" grep -q "n=6 train: done before, skipped" "$T/err"
 rm R/n6/frames/restored/frame_00013.png
 cp R/n6/refined.ply refined_first.ply
@@ -511,7 +517,7 @@ check "the report links the sparse model" test "$(grep -c "Open the refined mode
 # A preset and a flag over it, recorded: fast (lean, no restoration) with 50 iterations.
 expect 0 "fast with 50 iterations" -- "$G" reconstruct "${RC0[@]}" --preset fast --iters 50 --out FA --stop-after evaluate
 check "the first line" test "$(first_line)" = \
-    "reconstruct, preset fast: 50 sparse iterations (base dropgaussian,decay, lean density control), no restoration (the sparse model only)"
+    "reconstruct, preset fast: 50 sparse iterations (base dropgaussian,decay, lean density control, from 1/4 of the size), no restoration (the sparse model only)"
 check "the preset and its settings recorded" python3 -c "
 import json
 d = json.load(open('FA/metrics.json')); i = d['runs'][0]['inputs']

@@ -48,19 +48,22 @@ check "unknown --densify exits 2" test $? -eq 2
 check "unknown --densify explained" grep -q "expected lean, reference or mcmc" "$tmp/err.txt"
 check "unknown --densify: no model" test ! -e "$tmp/x.ply"
 
-# Regularisers: DropGaussian with the opacity decay to half the run is the default. In 1200
-# iterations the decay acts from 501 to 600: the default is --regularize dropgaussian,decay
-# --decay-until 0.5, another model than DropGaussian alone, plain 3DGS (--regularize none) or
-# the decay to the end. With mcmc the default is plain (the decay needs the lean or reference
+# Regularisers: DropGaussian to 0.1 with the opacity decay to half the run is the default. In
+# 1200 iterations the decay acts from 501 to 600: the default is --regularize
+# dropgaussian,decay --decay-until 0.5 --drop-rate 0.1 (and the default schedule), another
+# model than DropGaussian alone, plain 3DGS (--regularize none), the decay to the end or
+# DropGaussian to 0.2. With mcmc the default is plain (the decay needs the lean or reference
 # control). DropGaussian trains another model, the same for the same seed; unknown, empty or
 # repeated names are usage errors.
 train "$tmp/dec_default.ply" --iters 1200 > /dev/null 2>&1
-train "$tmp/dec_half.ply" --iters 1200 --regularize decay,dropgaussian --decay-until 0.5 > /dev/null 2>&1
+train "$tmp/dec_half.ply" --iters 1200 --regularize decay,dropgaussian --decay-until 0.5 --drop-rate 0.1 \
+    --resolution-schedule 4 > /dev/null 2>&1
+train "$tmp/drop_02.ply" --iters 1200 --drop-rate 0.2 > /dev/null 2>&1
 train "$tmp/dec_end.ply" --iters 1200 --regularize dropgaussian,decay --decay-until 1 > /dev/null 2>&1
 train "$tmp/drop_only.ply" --iters 1200 --regularize dropgaussian > /dev/null 2>&1
 train "$tmp/none1200.ply" --iters 1200 --regularize none > /dev/null 2>&1
 check "dropgaussian with the decay to half the run is the default" cmp -s "$tmp/dec_default.ply" "$tmp/dec_half.ply"
-for other in none1200 drop_only dec_end; do
+for other in none1200 drop_only dec_end drop_02; do
     check "the default is not $other" test -s "$tmp/$other.ply" -a -n "$(cmp "$tmp/dec_default.ply" "$tmp/$other.ply")"
 done
 train "$tmp/none.ply" --regularize none > /dev/null 2>&1
@@ -127,9 +130,10 @@ train "$tmp/x.ply" --regularize segs --segs-interval 0 > /dev/null 2> "$tmp/err.
 check "--segs-interval 0 exits 2" test $? -eq 2
 check "--segs-interval 0 explained in one line" test "$(cat "$tmp/err.txt")" = "gaussvid splat train: --segs-interval must be at least 1"
 
-# Resolution scheduling: 48x32 at 1/4 then 1/2 for the first 30 of 60 iterations; the summary
-# names the steps; the same seed gives the same bytes, another model than without it; bad
-# factors and --resolution-full-at alone are usage errors.
+# Resolution scheduling, the default from 1/4: 48x32 at 1/4 then 1/2 for the first 30 of 60
+# iterations; the summary names the steps; the same seed gives the same bytes, another model
+# than at full size (--resolution-schedule 1); bad factors and --resolution-full-at with
+# --resolution-schedule 1 are usage errors.
 "$gaussvid" splat train --scene "$scene" --interval 4 --iters 60 --seed 5 --threads 2 --out "$tmp/res1.ply" \
     --resolution-schedule 4 > "$tmp/res.txt" 2>&1
 check "--resolution-schedule trains" test -s "$tmp/res1.ply"
@@ -137,12 +141,17 @@ check "--resolution-schedule names its steps" \
     grep -q "resolution schedule: 1/4 from iteration 1, 1/2 from 16, full from 31" "$tmp/res.txt"
 train "$tmp/res2.ply" --resolution-schedule 4 > /dev/null 2>&1
 check "--resolution-schedule: same seed, same model" cmp -s "$tmp/res1.ply" "$tmp/res2.ply"
-check "--resolution-schedule is another model" test -n "$(cmp "$tmp/a.ply" "$tmp/res1.ply")"
+check "the schedule from 1/4 is the default" cmp -s "$tmp/a.ply" "$tmp/res1.ply"
+"$gaussvid" splat train --scene "$scene" --interval 4 --iters 60 --seed 5 --threads 2 --out "$tmp/res_full.ply" \
+    --resolution-schedule 1 > "$tmp/res_full.txt" 2>&1
+check "--resolution-schedule 1 is another model" test -s "$tmp/res_full.ply" -a -n "$(cmp "$tmp/a.ply" "$tmp/res_full.ply")"
+check "--resolution-schedule 1 names no steps" test -z "$(grep "resolution schedule" "$tmp/res_full.txt")" \
+    -a -n "$(grep "sparse-view regularisers" "$tmp/res_full.txt")"
 "$gaussvid" splat train --scene "$scene" --interval 4 --iters 60 --threads 2 --out "$tmp/res3.ply" \
     --resolution-schedule 2 --resolution-full-at 1 > "$tmp/res3.txt" 2>&1
 check "--resolution-full-at 1: 1/2 to the end" grep -q "resolution schedule: 1/2 from iteration 1 (" "$tmp/res3.txt"
-for bad in "--resolution-schedule 3" "--resolution-schedule 16" "--resolution-full-at 0.5" \
-           "--resolution-schedule 4 --resolution-full-at 1.5"; do
+for bad in "--resolution-schedule 3" "--resolution-schedule 16" "--resolution-schedule 0" \
+           "--resolution-schedule 1 --resolution-full-at 0.5" "--resolution-full-at 1.5"; do
     train "$tmp/y.ply" $bad > /dev/null 2> "$tmp/err.txt"
     check "'$bad' exits 2" test $? -eq 2
 done

@@ -64,6 +64,8 @@ typedef struct {
     int densify;                 /* its density control (gv_splat_densify_mode) */
     int regularize;              /* its sparse-view regularisers (GV_REGULARIZE_* bits; 0: plain
                                   * 3DGS, the base "3dgs" of the paper's table) */
+    int resolution_start;        /* its resolution schedule: the first iterations at 1/K of the
+                                  * size (splat train's --resolution-schedule; 1: full size) */
     int refine_iters;            /* refinement iterations */
     double refine_weight;        /* the restored frames' loss weight (training views: 1) */
     int restore_with;            /* gv_restore_with */
