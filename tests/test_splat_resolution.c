@@ -171,6 +171,27 @@ static void test_radii_in_full_pixels(void)
     gv_splat_densify_stats_free(&s);
 }
 
+/* The user's default on small views: the largest factor up to the start that leaves every
+ * view a pixel on each side, halving. */
+static void test_fit(void)
+{
+    gv_camera c[2];
+    memset(c, 0, sizeof c);
+    c[0].width = 256, c[0].height = 144, c[1].width = 256, c[1].height = 144;
+    CHECK(gv_splat_resolution_fit(4, c, 2) == 4);
+    CHECK(gv_splat_resolution_fit(8, c, 2) == 8);
+    CHECK(gv_splat_resolution_fit(1, c, 2) == 1);
+    CHECK(gv_splat_resolution_fit(0, c, 2) == 0); /* off stays off */
+    c[1].height = 3; /* 3 pixels: 1/2 leaves 1, 1/4 none */
+    CHECK(gv_splat_resolution_fit(4, c, 2) == 2);
+    CHECK(gv_splat_resolution_fit(8, c, 2) == 2);
+    c[1].height = 4;
+    CHECK(gv_splat_resolution_fit(8, c, 2) == 4);
+    c[0].width = 1; /* a 1-pixel column: full size only */
+    CHECK(gv_splat_resolution_fit(4, c, 2) == 1);
+    CHECK(gv_splat_resolution_fit(4, c, 0) == 4); /* no views: nothing to fit */
+}
+
 int main(void)
 {
     omp_set_num_threads(1);
@@ -178,5 +199,6 @@ int main(void)
     test_box_downsample();
     test_downsampled_camera();
     test_radii_in_full_pixels();
+    test_fit();
     return check_summary();
 }

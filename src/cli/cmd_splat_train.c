@@ -34,7 +34,7 @@ int cmd_splat_train(int argc, char **argv)
     gv_splat_train_options opt;
     gv_splat_train_defaults(&opt);
     int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0, segs_interval = 500,
-        resolution_start = GV_RESOLUTION_USER;
+        resolution_start = 0; /* 0: not given, GV_RESOLUTION_USER as the views allow */
     double resolution_full_at = 0; /* 0: not given (the schedule's 0.5) */
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &scene_dir, "DIR", "scene folder (COLMAP sparse/0 or transforms.json)", 1},
@@ -173,7 +173,7 @@ int cmd_splat_train(int argc, char **argv)
         return 2;
     }
     if (resolution_full_at == 0) resolution_full_at = 0.5;
-    if ((resolution_start != 1 && resolution_start != 2 && resolution_start != 4 && resolution_start != 8) ||
+    if ((resolution_start != 0 && resolution_start != 1 && resolution_start != 2 && resolution_start != 4 && resolution_start != 8) ||
         !(resolution_full_at > 0 && resolution_full_at <= 1)) {
         fprintf(stderr, "gaussvid splat train: --resolution-schedule takes 1 (off), 2, 4 or 8 and "
                         "--resolution-full-at a share in (0, 1]\n");
@@ -199,6 +199,8 @@ int cmd_splat_train(int argc, char **argv)
     gv_scene_options so = {.downscale = downscale, .white_background = white_bg};
     gv_scene scene;
     if (gv_scene_load(scene_dir, &so, &scene) != 0) return gv_report_failure();
+    if (resolution_start == 0)
+        opt.resolution_start = gv_splat_resolution_fit(GV_RESOLUTION_USER, scene.cameras, scene.n_frames);
     long pixels = training_pixels(&scene, interval);
     gv_gaussians model;
     double start = gv_now();

@@ -38,7 +38,7 @@ int pipeline_train(pipeline_run *r)
     opt.iterations = r->opt->iters;
     opt.densify_mode = (gv_splat_densify_mode)r->opt->densify;
     opt.regularize = r->opt->regularize;
-    opt.resolution_start = r->opt->resolution_start;
+    opt.resolution_start = gv_splat_resolution_fit(r->opt->resolution_start, r->scene->cameras, r->scene->n_frames);
     opt.seed = r->opt->seed;
     char label[32];
     snprintf(label, sizeof label, "train n=%d", r->interval);

@@ -39,6 +39,16 @@ int gv_splat_resolution_check(int start, double full_at)
     return 0;
 }
 
+int gv_splat_resolution_fit(int start, const gv_camera *cameras, int n)
+{
+    for (; start > 1; start /= 2) {
+        int fits = 1;
+        for (int i = 0; i < n && fits; i++) fits = cameras[i].width >= start && cameras[i].height >= start;
+        if (fits) break;
+    }
+    return start;
+}
+
 void gv_splat_box_downsample(const float *in, int width, int height, int f, float *out)
 {
     int w = width / f, h = height / f;

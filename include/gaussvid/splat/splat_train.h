@@ -228,6 +228,10 @@ int gv_splat_corgs_coprune(gv_gaussians *a, gv_splat_adam *adam_a, gv_gaussians 
 int gv_splat_resolution_factor(int iteration, int iterations, int start, double full_at);
 /* Fails unless start is 0, 1, 2, 4 or 8 and (with start > 1) full_at is in (0, 1]. */
 int gv_splat_resolution_check(int start, double full_at);
+/* The largest factor up to start (halving it) at which each of the n cameras keeps at least a
+ * pixel on each side: the user's default schedule on views of a few pixels (an explicit
+ * factor too large for a view is refused when its level is made). */
+int gv_splat_resolution_fit(int start, const gv_camera *cameras, int n);
 /* out (floor(width / f) x floor(height / f) x 3, HWC) = the mean of each f x f block of in
  * (width x height x 3); the last width mod f columns and height mod f rows are left out. */
 void gv_splat_box_downsample(const float *in, int width, int height, int f, float *out);
