@@ -1,10 +1,12 @@
 /* Front-to-back alpha blending of one Gaussian at eight pixels of a tile row, as the
  * reference's renderCUDA tests each pixel (docs/reference/gaussian-splatting.md section 9), shared
- * by the image (rasterize.c) and the depth pass (rasterize_depth.c), which must blend exactly the
- * same Gaussians: the alpha threshold, the early stop before T (1 - alpha) < 1e-4, and the tile's
+ * by the image (rasterize.c), the depth pass (rasterize_depth.c) and its backward
+ * (rasterize_depth_backward.c), which must blend exactly the same Gaussians: the alpha threshold, the early stop before T (1 - alpha) < 1e-4, and the tile's
  * pixel bookkeeping. What a blended Gaussian adds (colour, depth) is the caller's. */
 #ifndef GAUSSVID_SPLAT_BLEND8_H
 #define GAUSSVID_SPLAT_BLEND8_H
+
+#include <math.h>
 
 #include "gaussvid/splat/splat.h"
 #include "splat/simd8.h"
@@ -68,6 +70,43 @@ typedef struct {
     float mx, my, A, B, C, o, power_min;
     int x0, x1, y0, y1;
 } tile_splat;
+
+static SIMD8_INLINE int clamp_to_int(float v, int lo, int hi)
+{
+    if (!(v > (float)lo)) return lo; /* also NaN */
+    if (v >= (float)hi) return hi;
+    return (int)v;
+}
+
+/* Loads Gaussian g of the per-Gaussian arrays and clips its alpha box to the tile, as the
+ * image's forward (rasterize.c, pack_splats and load_splat) computes the box: every pixel
+ * the image blended is inside it. power_min is left at -INFINITY (every pixel of the box is
+ * tested). Returns 0 when the Gaussian cannot blend in this tile. For the passes that walk
+ * the image's tiles again: the depth forward and its backward. */
+static SIMD8_INLINE int tile_splat_load(tile_splat *s, int g, const float *means2d,
+                                        const float *conics, const float *opacities, int px0,
+                                        int py0, int tw, int th)
+{
+    float A = conics[3 * g], B = conics[3 * g + 1], C = conics[3 * g + 2], o = opacities[g];
+    if (!(o >= GV_SPLAT_ALPHA_MIN)) return 0; /* o exp(power) <= o */
+    float hx = INFINITY, hy = INFINITY, det = A * C - B * B;
+    if (det > 0 && A > 0) {
+        float level = 2.0f * (logf(255.0f * o) + 0.1f);
+        hx = sqrtf(level * C / det) + 0.01f;
+        hy = sqrtf(level * A / det) + 0.01f;
+    }
+    s->mx = means2d[2 * g], s->my = means2d[2 * g + 1];
+    /* pixel x of the tile has its centre at px0 + x + 0.5 */
+    s->x0 = clamp_to_int(ceilf(s->mx - hx - 0.5f - (float)px0), 0, tw);
+    s->x1 = clamp_to_int(floorf(s->mx + hx - 0.5f - (float)px0) + 1.0f, 0, tw) - 1;
+    s->y0 = clamp_to_int(ceilf(s->my - hy - 0.5f - (float)py0), 0, th);
+    s->y1 = clamp_to_int(floorf(s->my + hy - 0.5f - (float)py0) + 1.0f, 0, th) - 1;
+    if (s->x0 > s->x1 || s->y0 > s->y1) return 0;
+    s->x0 &= ~7;
+    s->A = A, s->B = B, s->C = C, s->o = o;
+    s->power_min = -INFINITY;
+    return 1;
+}
 
 /* What a blended Gaussian adds to a pixel of weight w = alpha T: its colour to the image
  * (sum[c] += colour[c] alpha T, in the reference's order, and the 1-based index of the last

@@ -112,17 +112,44 @@ int gv_splat_render_forward_scaled(gv_splat_renderer *r, const gv_gaussians *g,
 int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
                              const float *d_image, gv_gaussians *grad, float *densify_grad)
 {
+    return gv_splat_render_backward_depth(r, g, d_image, NULL, grad, densify_grad);
+}
+
+/* The depth backward's four per-Gaussian arrays in r->depth_grads (one allocation of the
+ * renderer's capacity): d means2d, d conics, d opacities, d z. */
+static int depth_grad_arrays(gv_splat_renderer *r, float *a[4])
+{
+    if (r->depth_capacity < r->capacity) {
+        if (grow((void **)&r->depth_grads, (size_t)r->capacity * 7 * sizeof(float)))
+            return gv_fail("render: out of memory for the depth gradients of %d Gaussians", r->n);
+        r->depth_capacity = r->capacity;
+    }
+    size_t cap = (size_t)r->depth_capacity;
+    a[0] = r->depth_grads, a[1] = a[0] + 2 * cap, a[2] = a[1] + 3 * cap, a[3] = a[2] + cap;
+    return 0;
+}
+
+int gv_splat_render_backward_depth(gv_splat_renderer *r, const gv_gaussians *g,
+                                   const float *d_image, const float *d_depth_sum,
+                                   gv_gaussians *grad, float *densify_grad)
+{
     if (g->n != r->n || g->sh_degree != r->sh_degree)
         return gv_fail("render: backward of %d Gaussians (SH degree %d) after a forward of %d "
                        "(degree %d)", g->n, g->sh_degree, r->n, r->sh_degree);
     if (grad->sh_degree != g->sh_degree || grad->capacity < g->n)
         return gv_fail("render: gradient holds %d Gaussians of SH degree %d, need %d of degree "
                        "%d", grad->capacity, grad->sh_degree, g->n, g->sh_degree);
+    float *dd[4] = {NULL, NULL, NULL, NULL}; /* the depth's d means2d, conics, opacities, z */
+    if (d_depth_sum && depth_grad_arrays(r, dd) != 0) return -1;
     const gv_splat_view *view = &r->view;
     double wall = gv_now(), cpu = gv_cpu_now();
     gv_splat_rasterize_backward(&r->tiles, view->width, view->height, r->bg, r->final_T,
                                 r->n_contrib, d_image, r->d_means2d, r->d_conics, r->d_colors,
                                 r->d_opacities);
+    if (d_depth_sum) /* the colour backward is done with the tiles' scratch rows */
+        gv_splat_rasterize_depth_backward(&r->tiles, view->width, view->height, r->means2d,
+                                          r->conics, r->opacities, r->depths, r->final_T,
+                                          r->n_contrib, d_depth_sum, dd[0], dd[1], dd[2], dd[3]);
     stage_done(r, GV_STAGE_RASTER_BWD, &wall, &cpu);
     int nv = r->tiles.n_visible;
     const int *vis = r->tiles.visible;
@@ -130,6 +157,11 @@ int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
 #pragma omp parallel for schedule(static)
     for (int k = 0; k < nv; k++) {
         int i = vis[k];
+        if (d_depth_sum) { /* the two losses' 2D gradients, summed */
+            for (int j = 0; j < 2; j++) r->d_means2d[2 * i + j] += dd[0][2 * i + j];
+            for (int j = 0; j < 3; j++) r->d_conics[3 * i + j] += dd[1][3 * i + j];
+            r->d_opacities[i] += dd[2][i];
+        }
         if (r->opacity_scale) { /* opacity = scale sigmoid(logit) */
             float o = sigmoid(g->opacities[i]);
             grad->opacities[i] = r->d_opacities[i] * r->opacity_scale[i] * o * (1.0f - o);
@@ -146,6 +178,16 @@ int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
     stage_done(r, GV_STAGE_GRADS, &wall, &cpu);
     gv_splat_project_backward(nv, vis, g->means, g->scales, g->rotations, view, r->d_means2d,
                               r->d_conics, grad->means, grad->scales, grad->rotations);
+    if (d_depth_sum) {
+        /* z = (R mean + t)_z: dL/dmean += dL/dz times the third row of R (the release's
+         * rasteriser adds the same through its view matrix) */
+        const float *R = view->R;
+#pragma omp parallel for schedule(static)
+        for (int k = 0; k < nv; k++) {
+            size_t i = (size_t)vis[k];
+            for (int j = 0; j < 3; j++) grad->means[3 * i + j] += R[6 + j] * dd[3][i];
+        }
+    }
     stage_done(r, GV_STAGE_PROJECT_BWD, &wall, &cpu);
     gv_splat_sh_backward(nv, vis, g->sh_degree, r->active_degree, g->sh, g->means,
                          view->campos, r->clamped, r->d_colors, grad->sh, grad->means);
@@ -158,7 +200,7 @@ void gv_splat_renderer_free(gv_splat_renderer *r)
     free(r->means2d), free(r->conics), free(r->depths), free(r->colors), free(r->opacities);
     free(r->radii), free(r->clamped);
     free(r->d_means2d), free(r->d_conics), free(r->d_colors), free(r->d_opacities);
-    free(r->final_T), free(r->n_contrib);
+    free(r->final_T), free(r->n_contrib), free(r->depth_grads);
     gv_splat_tiles_free(&r->tiles);
     memset(r, 0, sizeof *r);
 }

@@ -36,6 +36,10 @@ typedef struct {
     uint8_t *clamped;       /* colour channels clamped at 0 */
     float *d_means2d, *d_conics, *d_colors, *d_opacities;
     int capacity;
+    /* the depth backward's per-Gaussian gradients (gv_splat_render_backward_depth): d means2d
+     * (2), d conic (3), d opacity, d z per row, depth_capacity rows; allocated when first used */
+    float *depth_grads;
+    int depth_capacity;
     /* visible Gaussians (radius > 0): tiles.visible[0 .. tiles.n_visible), ascending */
     gv_splat_tiles tiles;
     /* per pixel */
@@ -69,10 +73,22 @@ int gv_splat_render_forward_scaled(gv_splat_renderer *r, const gv_gaussians *g,
  * NDC units, |(dL/dx * W/2, dL/dy * H/2)| (docs/reference/gaussian-splatting.md section 14.1). */
 int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
                              const float *d_image, gv_gaussians *grad, float *densify_grad);
+/* gv_splat_render_backward for a loss on the image and on the accumulated depth
+ * sum_i w_i z_i of the last forward (gv_splat_render_depth_sum): d_depth_sum (width * height,
+ * NULL: none) is dL/d that per pixel. Its gradient reaches the opacities, the 2D means and
+ * conics (so also the densification statistic) and each Gaussian's view z, which moves its
+ * mean along the camera's third axis (src/splat/rasterize_depth_backward.c). */
+int gv_splat_render_backward_depth(gv_splat_renderer *r, const gv_gaussians *g,
+                                   const float *d_image, const float *d_depth_sum,
+                                   gv_gaussians *grad, float *densify_grad);
 /* Expected depth (view z, 0 where nothing blends) and accumulated opacity 1 - T_final of
  * the last forward, per pixel (width * height floats each; either may be NULL): the pass
  * of gv_splat_rasterize_depth (src/splat/rasterize_depth.c). Fails before any forward. */
 int gv_splat_render_depth(const gv_splat_renderer *r, float *depth, float *opacity);
+/* The accumulated depth sum_i w_i z_i of the last forward per pixel (width * height floats:
+ * the expected depth times the opacity, 0 where nothing blends), the depth Binocular3DGS's
+ * release renders and differentiates. Fails before any forward. */
+int gv_splat_render_depth_sum(const gv_splat_renderer *r, float *depth_sum);
 void gv_splat_renderer_free(gv_splat_renderer *r);
 
 #endif

@@ -141,13 +141,27 @@ void gv_splat_rasterize_backward(gv_splat_tiles *t, int width, int height, const
 /* ---- rasterize_depth.c -----------------------------------------------------------------
  * Per pixel, over the tiles of a forward with the same 2D data: the expected view-space
  * depth sum_i w_i z_i / sum_i w_i (w_i = alpha_i T_i, the colour's weights; 0 where nothing
- * blends) into depth, and the accumulated opacity 1 - T_final into opacity (either may be
- * NULL). The same Gaussians blend as in gv_splat_rasterize_forward, and 1 - opacity is its
- * final_T exactly. Parallel over tiles; no backward. */
+ * blends) into depth, the accumulated opacity 1 - T_final into opacity, and the accumulated
+ * depth sum_i w_i z_i into depth_sum (any of the three may be NULL). The same Gaussians blend
+ * as in gv_splat_rasterize_forward, and 1 - opacity is its final_T exactly. Parallel over
+ * tiles. */
 void gv_splat_rasterize_depth(const gv_splat_tiles *t, int width, int height,
                               const float *means2d, const float *conics,
                               const float *opacities, const float *depths, float *depth,
-                              float *opacity);
+                              float *opacity, float *depth_sum);
+
+/* ---- rasterize_depth_backward.c --------------------------------------------------------
+ * The backward of depth_sum (sum_i w_i z_i), back to front per pixel, from dL/d depth_sum:
+ * must follow gv_splat_rasterize_forward on the same tiles and 2D data (it reads its final_T
+ * and n_contrib; the alpha clamp is ignored in the gradient, as in 3DGS). WRITES, for the
+ * visible Gaussians, d_means2d (pixels), d_conics (w.r.t. A, B, C), d_opacities (activated)
+ * and d_depths (view z). Uses t->entry_grads; the same result for any thread count. */
+void gv_splat_rasterize_depth_backward(gv_splat_tiles *t, int width, int height,
+                                       const float *means2d, const float *conics,
+                                       const float *opacities, const float *depths,
+                                       const float *final_T, const int *n_contrib,
+                                       const float *d_depth_sum, float *d_means2d,
+                                       float *d_conics, float *d_opacities, float *d_depths);
 
 /* ---- reference.c -----------------------------------------------------------------------
  * Plain double-precision implementation of the same formulas, written independently of the
