@@ -138,7 +138,10 @@ static int merge(const int *x, int nx, const int *y, int ny, int *rows)
 static int add_gradient(gv_splat_corgs *c, int k, gv_splat_trainer *t)
 {
     const gv_splat_tiles *own = &t->renderer.tiles, *pseudo = &c->renderer[k].tiles;
-    int need = own->n_visible + pseudo->n_visible;
+    /* the rows with a gradient so far: the render's, or those another term set (binocular) */
+    const int *own_rows = t->update_rows ? t->update_rows : own->visible;
+    int n_own = t->update_rows ? t->n_update_rows : own->n_visible;
+    int need = n_own + pseudo->n_visible;
     if (need > c->rows_capacity[k]) {
         int *r = realloc(c->rows[k], (size_t)need * sizeof(int));
         if (!r) return gv_fail("corgs: out of memory for %d rows", need);
@@ -156,8 +159,7 @@ static int add_gradient(gv_splat_corgs *c, int k, gv_splat_trainer *t)
         for (int a = 0; a < w; a++) dst->sh[w * i + a] += src->sh[w * i + a];
         dst->opacities[i] += src->opacities[i];
     }
-    t->n_update_rows = merge(own->visible, own->n_visible, pseudo->visible, pseudo->n_visible,
-                             c->rows[k]);
+    t->n_update_rows = merge(own_rows, n_own, pseudo->visible, pseudo->n_visible, c->rows[k]);
     t->update_rows = c->rows[k];
     return 0;
 }

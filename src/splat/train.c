@@ -30,7 +30,7 @@
 
 /* Philox streams of one training run, derived from the seed. */
 enum { STREAM_VIEWS = 1, STREAM_BACKGROUND = 2, STREAM_SPLIT = 3, STREAM_INIT = 4,
-       STREAM_NOISE = 5, STREAM_DROP = 6 };
+       STREAM_NOISE = 5, STREAM_DROP = 6, STREAM_BINOCULAR = 7 };
 
 static uint64_t stream_seed(uint64_t seed, int stream)
 {
@@ -63,6 +63,11 @@ void gv_splat_train_defaults(gv_splat_train_options *opt)
      * where the views are many (docs/RESULTS.md section 5, "opacity decay"). */
     opt->decay_until = 0.5;
     opt->drop_rate = GV_DROP_RATE;
+    /* Binocular3DGS's release starts the term after iteration 20000 of 30000 (LLFF, DTU). */
+    opt->binocular_from = 2.0 / 3.0;
+    /* Its largest shift, 0.4 COLMAP units, is 0.5-2.4 % of the depths of the points of its
+     * LLFF fern scene (17-78 units): about 1.5 % of a middle depth (docs/SPLAT_TRAINING.md). */
+    opt->binocular_baseline = 0.015;
     opt->resolution_full_at = 0.5;
 }
 
@@ -93,6 +98,7 @@ static const struct { const char *name; int bit; } REGULARIZERS[] = {
     {"corgs", GV_REGULARIZE_CORGS},
     {"segs", GV_REGULARIZE_SEGS},
     {"decay", GV_REGULARIZE_DECAY},
+    {"binocular", GV_REGULARIZE_BINOCULAR},
 };
 enum { N_REGULARIZERS = sizeof REGULARIZERS / sizeof REGULARIZERS[0] };
 
@@ -167,6 +173,10 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
         return gv_fail("train: the opacity decay's end is %g of the iterations; it must be in (0, 1]", opt->decay_until);
     if ((opt->regularize & GV_REGULARIZE_DROPGAUSSIAN) && !(opt->drop_rate >= 0 && opt->drop_rate < 1))
         return gv_fail("train: the DropGaussian rate is %g; it must be in [0, 1)", opt->drop_rate);
+    if ((opt->regularize & GV_REGULARIZE_BINOCULAR) && !(opt->binocular_from >= 0 && opt->binocular_from < 1))
+        return gv_fail("train: the binocular loss starts at %g of the iterations; it must be in [0, 1)", opt->binocular_from);
+    if ((opt->regularize & GV_REGULARIZE_BINOCULAR) && !(opt->binocular_baseline > 0 && opt->binocular_baseline < 1))
+        return gv_fail("train: the binocular baseline is %g of the median depth; it must be in (0, 1)", opt->binocular_baseline);
     if ((opt->regularize & GV_REGULARIZE_CORGS) && opt->densify_mode == GV_DENSIFY_MCMC)
         return gv_fail("train: corgs co-prunes at the densification steps of lean or reference density control, not mcmc");
     if ((opt->regularize & GV_REGULARIZE_TWO_FIELDS) && !(opt->corgs_pseudo_weight >= 0 && isfinite(opt->corgs_pseudo_weight)))
@@ -192,6 +202,20 @@ static int check_inputs(const gv_splat_train_options *opt, int n_views,
             return gv_fail("train: %s: image is %dx%dx%d but the camera is %dx%d (RGB expected)",
                            cameras[i].name, images[i].width, images[i].height, images[i].channels,
                            cameras[i].width, cameras[i].height);
+    return 0;
+}
+
+/* Binocular3DGS's term: its start, and the baseline's scale from the initial model. */
+static int binocular_init(gv_splat_trainer *t)
+{
+    gv_splat_binocular *b = &t->binocular;
+    b->from = (int)floor(t->opt.binocular_from * t->opt.iterations + 0.5);
+    b->depth = gv_splat_median_view_depth(&t->params, t->n_views, t->views);
+    if (!(b->depth > 0))
+        return gv_fail("train: binocular: no initial Gaussian is in front of a training camera, "
+                       "so there is no depth to scale the baseline by");
+    b->baseline = t->opt.binocular_baseline * b->depth;
+    gv_rng_init(&b->rng, stream_seed(t->opt.seed, STREAM_BINOCULAR));
     return 0;
 }
 
@@ -268,6 +292,7 @@ int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt
         goto fail;
     t->densify_grad = calloc((size_t)t->params.capacity, sizeof(float));
     if (!t->densify_grad || grow_all_rows(t) != 0) goto out_of_memory;
+    if ((opt->regularize & GV_REGULARIZE_BINOCULAR) && binocular_init(t) != 0) goto fail;
     t->order_pos = n_views; /* empty: the first step shuffles */
     t->factor = 1;
     if (opt->initial) t->active_degree = opt->sh_degree; /* a trained model has every degree */
@@ -291,6 +316,7 @@ void gv_splat_trainer_free(gv_splat_trainer *t)
     gv_splat_loss_free(&t->loss_work);
     free(t->views), free(t->order), free(t->render), free(t->target), free(t->d_render);
     free(t->densify_grad), free(t->all_rows), free(t->drop_scale);
+    gv_splat_binocular_free(&t->binocular);
     gv_splat_resolution_levels_free(t->levels, 3, t->n_views);
     memset(t, 0, sizeof *t);
 }
@@ -490,19 +516,31 @@ int gv_splat_trainer_forward_backward(gv_splat_trainer *t)
     if (gv_splat_loss(&t->loss_work, t->render, target, view->width, view->height,
                       t->opt.lambda_dssim, t->d_render, &loss) != 0)
         return gv_fail_context("train: iteration %d (view %s)", it, t->cameras[v].name);
+    float weight = t->opt.view_weights ? t->opt.view_weights[v] : 1.0f;
     if (t->opt.view_weights) { /* a down-weighted view: its loss and gradient scaled */
-        float w = t->opt.view_weights[v];
-        for (long i = 0; i < (long)view->width * view->height * 3; i++) t->d_render[i] *= w;
-        loss.loss *= w;
+        for (long i = 0; i < (long)view->width * view->height * 3; i++) t->d_render[i] *= weight;
+        loss.loss *= weight;
     }
     t->loss = loss.loss;
     t->ema_loss = it == 1 ? t->loss : 0.4 * t->loss + 0.6 * t->ema_loss;
     double t2 = gv_now();
-    if (gv_splat_render_backward(&t->renderer, &t->params, t->d_render, &t->grad, t->densify_grad))
-        return gv_fail_context("train: iteration %d", it);
+    /* Binocular3DGS: a render of the view shifted sideways, warped back with this render's
+     * depth; its gradient reaches this render's depth and the shifted render. */
+    gv_splat_binocular *bino = NULL;
+    if ((t->opt.regularize & GV_REGULARIZE_BINOCULAR) && it > t->binocular.from) {
+        bino = &t->binocular;
+        if (gv_splat_binocular_forward_backward(bino, t, view, bg, scale, target, weight) != 0)
+            return gv_fail_context("train: iteration %d (view %s)", it, t->cameras[v].name);
+    }
     double t3 = gv_now();
+    if (gv_splat_render_backward_depth(&t->renderer, &t->params, t->d_render,
+                                       bino ? bino->d_depth_sum : NULL, &t->grad, t->densify_grad) ||
+        (bino && gv_splat_binocular_add_gradient(bino, t) != 0))
+        return gv_fail_context("train: iteration %d", it);
+    double t4 = gv_now();
     t->seconds[GV_PHASE_RENDER] += t1 - t0, t->seconds[GV_PHASE_LOSS] += t2 - t1;
-    t->seconds[GV_PHASE_BACKWARD] += t3 - t2;
+    if (bino) bino->seconds += t3 - t2;
+    t->seconds[GV_PHASE_BACKWARD] += t4 - t3;
     return 0;
 }
 

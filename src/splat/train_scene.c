@@ -89,6 +89,16 @@ static int run(gv_splat_trainer *t, gv_splat_trainer *b, gv_splat_corgs *c, gv_s
     if (t->opt.regularize & GV_REGULARIZE_FSGS)
         gv_info("FSGS unpooling (proximity above %g x extent): %ld Gaussians added",
                 t->opt.fsgs_distance, t->unpooled);
+    if (t->opt.regularize & GV_REGULARIZE_BINOCULAR) {
+        const gv_splat_binocular *bi = &t->binocular;
+        double views = bi->views > 0 ? (double)bi->views : 1;
+        gv_info("Binocular3DGS consistency: after iteration %d, %ld shifted views, baseline up to "
+                "%.4g (%g x the median depth %.4g; mean |b| %.4g), mean loss %.4f (L1 %.4f, "
+                "smoothness %.4f x %g), %.1f ms per view", bi->from, bi->views, bi->baseline,
+                t->opt.binocular_baseline, bi->depth, bi->baseline_sum / views, bi->loss_sum / views,
+                bi->l1_sum / views, bi->smoothness_sum / views, GV_BINOCULAR_SMOOTH_WEIGHT,
+                1000 * bi->seconds / views);
+    }
     if (t->opt.regularize & GV_REGULARIZE_DROPGAUSSIAN)
         gv_info("DropGaussian: rate up to %.2f, %.1f Gaussians left out per render on average",
                 gv_splat_drop_rate(t->iteration, t->opt.iterations, t->opt.drop_rate),

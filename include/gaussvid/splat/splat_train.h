@@ -246,6 +246,80 @@ typedef struct {
 } gv_splat_resolution_level;
 void gv_splat_resolution_levels_free(gv_splat_resolution_level *levels, int n_levels, int n_views);
 
+/* ---- binocular.c ------------------------------------------------------------------------
+ * Binocular3DGS's binocular consistency loss (Han, Zhou, Liu and Han, NeurIPS 2024; the
+ * release hanl2010/Binocular3DGS, train.py): the training camera shifted sideways by a random
+ * baseline b is rendered, warped back into the training view with the disparity of the
+ * model's own accumulated depth D (rasterize_depth_backward.c), d = -fx b / (D + 1e-5), and
+ * compared with the training photo; an edge-aware smoothness of d is added. The constants are
+ * the release's (docs/SPLAT_TRAINING.md, "binocular"). */
+#define GV_BINOCULAR_SMOOTH_WEIGHT 0.05 /* loss = L1 + 0.05 smoothness */
+#define GV_BINOCULAR_EDGE_DECAY 0.33f   /* the smoothness's weight exp(-0.33 |image gradient|) */
+#define GV_BINOCULAR_DEPTH_EPS 1e-5f    /* d = -fx b / (D + 1e-5) */
+
+/* Row-wise linear sampling, the release's inverse warp (monodepth's): warped(x, y) =
+ * (x0 + 1 - s) image(x0, y) + (s - x0) image(x0 + 1, y) at s = x + disparity(x, y), x0 =
+ * floor(s) (pixel indices; pixel x is centred at x + 0.5 in both images, which share
+ * intrinsics). valid(x, y) = 1 when x0 and x0 + 1 are both columns of the image, else 0 and
+ * warped = 0 there. image and warped are HWC, 3 channels; disparity and valid W x H. */
+void gv_splat_warp_rows(const float *image, int width, int height, const float *disparity,
+                        float *warped, float *valid);
+/* Its backward from d_warped: ADDS dL/dimage into d_image and WRITES dL/d disparity (either
+ * may be NULL); x0 is piecewise constant, so dwarped/ddisparity = image(x0 + 1) - image(x0);
+ * zero where not valid. */
+void gv_splat_warp_rows_backward(const float *image, int width, int height,
+                                 const float *disparity, const float *d_warped, float *d_image,
+                                 float *d_disparity);
+/* The release's edge-aware smoothness of a disparity map (W x H) along an image (HWC): over
+ * the (W - 2)(H - 2) interior pixels, mean |exp(-0.33 |gx|) dx| + mean |exp(-0.33 |gy|) dy|
+ * with dx = (d(x+1) - d(x-1)) / 2 and gx the same of the image summed over its channels (and
+ * in y alike). ADDS its gradient into d_disparity (NULL: none). 0 for images under 3 x 3. */
+double gv_splat_edge_smoothness(const float *disparity, const float *image, int width,
+                                int height, float *d_disparity);
+
+typedef struct { double loss, l1, smoothness; int valid_pixels; } gv_splat_binocular_value;
+typedef struct {
+    long pixels;                /* what the buffers hold */
+    float *disparity, *valid, *warped, *d_warped, *d_disparity, *masked, *d_smooth;
+} gv_splat_binocular_work;
+
+/* The release's term for one training view: from the accumulated depth D of its render
+ * (depth_sum, W x H) and the render of the camera shifted by baseline b along its x axis
+ * (shifted, HWC), d = -fx b / (D + 1e-5), loss = mean over 3 W H of valid |warped - target| +
+ * 0.05 smoothness(valid d, target). WRITES dL/dshifted (HWC) and dL/d depth_sum (W x H),
+ * scaled by weight (as the loss is). Fails on a bad size, no memory or a non-finite loss. */
+int gv_splat_binocular_loss(gv_splat_binocular_work *w, const float *target,
+                            const float *depth_sum, const float *shifted, int width, int height,
+                            double fx, double baseline, double weight, float *d_shifted,
+                            float *d_depth_sum, gv_splat_binocular_value *value);
+void gv_splat_binocular_work_free(gv_splat_binocular_work *w);
+/* The view v with its centre moved by baseline along its own x axis (the release's
+ * getShiftedCamera): the same rotation and intrinsics, t - (b, 0, 0). */
+void gv_splat_view_shifted(const gv_splat_view *v, double baseline, gv_splat_view *out);
+/* The median view depth z of the centres of g over the views, counting each (Gaussian,
+ * view) pair whose centre is beyond the near plane and projects into the image; 0 when none
+ * does. The scale of the baseline. */
+double gv_splat_median_view_depth(const gv_gaussians *g, int n_views, const gv_splat_view *views);
+
+/* The term's state in a training run. */
+typedef struct {
+    gv_splat_renderer renderer; /* the shifted camera's */
+    gv_splat_binocular_work work;
+    gv_gaussians grad;          /* the shifted render's gradient (valid on its visible rows) */
+    float *shifted, *d_shifted, *depth_sum, *d_depth_sum;
+    long pixels;
+    int *rows, rows_capacity;   /* Adam's rows: the two renders' visible ones */
+    gv_rng rng;                 /* the baselines */
+    int from;                   /* the term runs in the iterations after this one */
+    double depth;               /* the initial model's median view depth */
+    double baseline;            /* the largest |b|: options.binocular_baseline x depth */
+    long views;                 /* shifted views rendered */
+    double loss_sum, l1_sum, smoothness_sum, baseline_sum; /* over them: the term, its two
+                                 * parts (unweighted), |b| */
+    double seconds;             /* the shifted render, the loss and the shifted backward (the
+                                 * depth backward counts in the trainer's backward) */
+} gv_splat_binocular;
+
 /* ---- train.c ----------------------------------------------------------------------------
  * The loop of 3DGS train.py (section 14.1). Iteration numbers start at 1. */
 typedef enum { GV_BG_BLACK, GV_BG_WHITE, GV_BG_RANDOM } gv_splat_background;
@@ -276,10 +350,10 @@ const char *gv_splat_densify_mode_name(gv_splat_densify_mode mode);
 /* Prior-free sparse-view regularisers (docs/SPLAT_TRAINING.md, "Sparse-view regularisers"),
  * a set of bits; none of them is the plain 3DGS of the reference. */
 enum { GV_REGULARIZE_DROPGAUSSIAN = 1 << 0, GV_REGULARIZE_FSGS = 1 << 1, GV_REGULARIZE_CORGS = 1 << 2,
-       GV_REGULARIZE_SEGS = 1 << 3, GV_REGULARIZE_DECAY = 1 << 4 };
+       GV_REGULARIZE_SEGS = 1 << 3, GV_REGULARIZE_DECAY = 1 << 4, GV_REGULARIZE_BINOCULAR = 1 << 5 };
 /* The regularisers that train a second field alongside the model. */
 #define GV_REGULARIZE_TWO_FIELDS (GV_REGULARIZE_CORGS | GV_REGULARIZE_SEGS)
-#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian, fsgs, corgs, segs, decay"
+#define GV_REGULARIZE_NAMES "none or a comma-separated list of dropgaussian, fsgs, corgs, segs, decay, binocular"
 /* The regularisers of the model a user gets (`splat train`, `reconstruct`; issue 38): the
  * opacity decay up to half the iterations with DropGaussian, the best measured over the
  * 15-cell table (docs/RESULTS.md section 5, "the user's default"). The library's default
@@ -323,6 +397,10 @@ typedef struct {
                                  * the end, the release's) */
     double drop_rate;           /* DropGaussian: the share left out at the last iteration,
                                  * in [0, 1) (GV_DROP_RATE) */
+    double binocular_from;      /* binocular: the term after this share of the iterations
+                                 * (2/3: the release's 20000 of 30000) */
+    double binocular_baseline;  /* binocular: the largest shift, x the initial model's median
+                                 * view depth (0.015) */
     gv_splat_densify_params densify; /* lean and reference; extent is set by the trainer */
     gv_splat_mcmc_params mcmc;  /* MCMC mode; cap 0 = gaussians_per_pixel x training pixels */
     double gaussians_per_pixel;
@@ -373,6 +451,7 @@ typedef struct {
     double seconds[GV_PHASES];  /* time spent per phase */
     gv_splat_resolution_level levels[3]; /* 1/2, 1/4, 1/8: built when first used */
     int factor;                 /* this iteration's downsample factor (1: full resolution) */
+    gv_splat_binocular binocular; /* Binocular3DGS's consistency term */
 } gv_splat_trainer;
 
 /* The reference's values (sections 13-14) and the values above. */
@@ -398,6 +477,18 @@ int gv_splat_trainer_update(gv_splat_trainer *t);
 /* After rows of t->params (and its Adam moments) were added or removed outside the step:
  * the gradient and statistics buffers follow, zeroed (as after a densification). */
 int gv_splat_trainer_rows_changed(gv_splat_trainer *t);
+/* Binocular3DGS's term at the iteration's view (after t's render of it, before its
+ * backward): renders the view shifted by a random baseline, computes the loss (times weight)
+ * and the shifted render's gradient; b->d_depth_sum is then dL/d the accumulated depth of
+ * t's render, for gv_splat_render_backward_depth. */
+int gv_splat_binocular_forward_backward(gv_splat_binocular *b, gv_splat_trainer *t,
+                                        const gv_splat_view *view, const float bg[3],
+                                        const float *opacity_scale, const float *target,
+                                        double weight);
+/* After t's backward: adds the shifted render's gradient to t->grad and gives Adam the
+ * union of the two renders' rows. */
+int gv_splat_binocular_add_gradient(gv_splat_binocular *b, gv_splat_trainer *t);
+void gv_splat_binocular_free(gv_splat_binocular *b);
 /* CoR-GS's pseudo-view co-regularisation (corgs.c): the two fields rendered at a camera
  * between two training views, each pulled towards the other's render by
  * weight x ((1 - lambda) L1 + lambda (1 - SSIM)) of the pair, the training loss's form. */
