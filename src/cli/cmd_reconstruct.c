@@ -51,7 +51,7 @@ static int apply_settings(const explicit_flags *x, gv_reconstruct_options *o)
         return gv_fail("--densify %s: expected " GV_DENSIFY_MODE_NAMES, x->densify);
     if (x->base && (o->regularize = !strcmp(x->base, "3dgs") ? 0 : gv_splat_regularize_parse(x->base)) <= 0 &&
         strcmp(x->base, "3dgs"))
-        return gv_fail("--base %s: expected 3dgs, corgs, fsgs, dropgaussian, segs, decay or a comma-separated list of the last five",
+        return gv_fail("--base %s: expected 3dgs, corgs, fsgs, dropgaussian, segs, decay, binocular or a comma-separated list of the last six",
                        x->base);
     if (!x->base && o->densify == GV_DENSIFY_MCMC) o->regularize = gv_splat_regularize_default(o->densify);
     if (x->resolution != UNSET) {
@@ -113,7 +113,7 @@ int cmd_reconstruct(int argc, char **argv)
         {"no-restore", GV_FLAG_BOOL, &x.no_restore, NULL, "the sparse model, its renders, evaluation, video and report only (--restore-with none)", 0},
         {"adapt", GV_FLAG_BOOL, &x.adapt, NULL, "--restore-with adapted (the default; kept for older scripts)", 0},
         {"iters", GV_FLAG_INT, &x.iters, "N", "sparse 3DGS iterations (default 8000; preset fast 3000, best 15000)", 0},
-        {"base", GV_FLAG_STRING, &x.base, "NAME", "the sparse model, named as the paper's Table 1 names its bases: 3dgs (default: plain 3DGS), corgs (CoR-GS: two fields co-pruned and pulled together at cameras between the views; about 3x the time), fsgs (FSGS's unpooling, without its depth network), dropgaussian, segs (SE-GS: corgs's two fields and pseudo-view term without co-pruning, the second field perturbed where the model's pseudo views are uncertain), decay (Binocular3DGS's opacity decay), or a comma-separated list of the last five (docs/SPLAT_TRAINING.md)", 0},
+        {"base", GV_FLAG_STRING, &x.base, "NAME", "the sparse model, named as the paper's Table 1 names its bases: 3dgs (default: plain 3DGS), corgs (CoR-GS: two fields co-pruned and pulled together at cameras between the views; about 3x the time), fsgs (FSGS's unpooling, without its depth network), dropgaussian, segs (SE-GS: corgs's two fields and pseudo-view term without co-pruning, the second field perturbed where the model's pseudo views are uncertain), decay (Binocular3DGS's opacity decay), binocular (Binocular3DGS's consistency loss: the view shifted sideways, warped back with the model's depth, compared with the photo; decay,binocular is the release's method), or a comma-separated list of the last six (docs/SPLAT_TRAINING.md)", 0},
         {"densify", GV_FLAG_STRING, &x.densify, "MODE", "its density control: lean (default: the reference's mean quality in half its time), reference (the paper's) or mcmc", 0},
         {"resolution-schedule", GV_FLAG_INT, &x.resolution, "K", "its first iterations at 1/K of the size, as splat train's: 1 (full size throughout; preset best), 2, 4 (default) or 8", 0},
         {"refine-iters", GV_FLAG_INT, &x.refine_iters, "N", "refinement iterations (default 1000)", 0},

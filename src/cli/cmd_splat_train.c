@@ -1,5 +1,6 @@
 /* gaussvid splat train --scene DIR --out model.ply: sparse-view 3DGS training on frames
  * 0, n, 2n, ... of a scene (docs/SPLAT_TRAINING.md). */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -36,6 +37,7 @@ int cmd_splat_train(int argc, char **argv)
     int white_bg = 0, random_bg = 0, sparse_adam = 0, max_gaussians = 0, segs_interval = 500,
         resolution_start = 0; /* 0: not given, GV_RESOLUTION_USER as the views allow */
     double resolution_full_at = 0; /* 0: not given (the schedule's 0.5) */
+    double binocular_from = NAN, binocular_baseline = NAN; /* NAN: not given */
     const gv_flag flags[] = {
         {"scene", GV_FLAG_STRING, &scene_dir, "DIR", "scene folder (COLMAP sparse/0 or transforms.json)", 1},
         {"out", GV_FLAG_STRING, &out, "FILE.ply", "the trained model (3DGS .ply)", 1},
@@ -49,13 +51,15 @@ int cmd_splat_train(int argc, char **argv)
         {"sparse-adam", GV_FLAG_BOOL, &sparse_adam, NULL,
          "lean and reference: Adam on the visible Gaussians only (default: all; mcmc steps all)", 0},
         {"densify", GV_FLAG_STRING, &densify, "MODE", "lean (default), reference or mcmc", 0},
-        {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "sparse-view regularisers: dropgaussian,decay (default), none (plain 3DGS), fsgs, corgs, segs", 0},
+        {"regularize", GV_FLAG_STRING, &regularize, "NAME[,NAME]", "sparse-view regularisers: dropgaussian,decay (default), none (plain 3DGS), fsgs, corgs, segs, binocular", 0},
         {"corgs-distance", GV_FLAG_DOUBLE, &corgs_distance, "X", "corgs: co-prune Gaussians without a counterpart within X x the scene extent (default 0.05)", 0},
         {"corgs-pseudo", GV_FLAG_DOUBLE, &corgs_pseudo, "W", "corgs, segs: weight of the two fields' pseudo-view term (default 1; 0: off)", 0},
         {"segs-interval", GV_FLAG_INT, &segs_interval, "N", "segs: iterations between the pseudo-view renders that decide the perturbation (default 500)", 0},
         {"decay-factor", GV_FLAG_DOUBLE, &opt.decay_factor, "F", "decay: the opacities' factor per iteration (default 0.995)", 0},
         {"decay-until", GV_FLAG_DOUBLE, &opt.decay_until, "S", "decay: only up to this share of the iterations, in (0, 1] (default 0.5; 1: to the end)", 0},
         {"drop-rate", GV_FLAG_DOUBLE, &opt.drop_rate, "R", "dropgaussian: the share left out at the last iteration, in [0, 1) (default 0.1)", 0},
+        {"binocular-from", GV_FLAG_DOUBLE, &binocular_from, "S", "binocular: the consistency loss after this share of the iterations, in [0, 1) (default 0.667: the release's 20000 of 30000)", 0},
+        {"binocular-baseline", GV_FLAG_DOUBLE, &binocular_baseline, "X", "binocular: the largest sideways shift of the camera, X x the initial Gaussians' median depth in the training views (default 0.015)", 0},
         {"fsgs-distance", GV_FLAG_DOUBLE, &fsgs_distance, "X", "fsgs: unpool where the proximity score exceeds X x the scene extent (default 0.1)", 0},
         {"max-gaussians", GV_FLAG_INT, &max_gaussians, "N", "mcmc: the budget (default: --per-pixel x training pixels)", 0},
         {"per-pixel", GV_FLAG_DOUBLE, &per_pixel, "X", "mcmc: budget per training pixel (default 0.02)", 0},
@@ -110,6 +114,14 @@ int cmd_splat_train(int argc, char **argv)
         "             (position, opacity, scale, rotation; ratio 0.08 down to 0.02), so\n"
         "             the model is pulled towards an ensemble of perturbed fields; with\n"
         "             corgs too, co-pruning as well (the SE-GS release's configuration)\n"
+        "  binocular  Binocular3DGS's consistency loss: after --binocular-from x N\n"
+        "             iterations, each training view is also rendered from the camera\n"
+        "             moved sideways by a random baseline (up to --binocular-baseline x\n"
+        "             the initial median depth), warped back with the disparity of the\n"
+        "             model's own depth, and compared with the photo (L1, plus 0.05 x an\n"
+        "             edge-aware smoothness of the disparity); the gradient reaches the\n"
+        "             shifted render and the depth. decay,binocular is the release's full\n"
+        "             method. About twice the time per iteration while it runs\n"
         "--iters N stops the schedule early (nothing is rescaled; the drop share\n"
         "follows --iters).\n"
         "Resolution scheduling (--resolution-schedule K, after DashGaussian): iterations\n"
@@ -159,6 +171,12 @@ int cmd_splat_train(int argc, char **argv)
         fprintf(stderr, "gaussvid splat train: --drop-rate must be in [0, 1)\n");
         return 2;
     }
+    if (!isnan(binocular_from)) opt.binocular_from = binocular_from;
+    if (!isnan(binocular_baseline)) opt.binocular_baseline = binocular_baseline;
+    if (!(opt.binocular_from >= 0 && opt.binocular_from < 1) || !(opt.binocular_baseline > 0 && opt.binocular_baseline < 1)) {
+        fprintf(stderr, "gaussvid splat train: --binocular-from must be in [0, 1) and --binocular-baseline in (0, 1)\n");
+        return 2;
+    }
     if (!(fsgs_distance > 0) || !(corgs_distance > 0)) {
         fprintf(stderr, "gaussvid splat train: --fsgs-distance and --corgs-distance must be positive\n");
         return 2;
@@ -186,6 +204,10 @@ int cmd_splat_train(int argc, char **argv)
     opt.regularize = regularize ? gv_splat_regularize_parse(regularize) : gv_splat_regularize_default(opt.densify_mode);
     if (opt.regularize < 0) {
         fprintf(stderr, "gaussvid splat train: --regularize %s: expected " GV_REGULARIZE_NAMES "\n", regularize);
+        return 2;
+    }
+    if ((!isnan(binocular_from) || !isnan(binocular_baseline)) && !(opt.regularize & GV_REGULARIZE_BINOCULAR)) {
+        fprintf(stderr, "gaussvid splat train: --binocular-from and --binocular-baseline need binocular in --regularize\n");
         return 2;
     }
     opt.mcmc.cap = max_gaussians;

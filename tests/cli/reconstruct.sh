@@ -236,7 +236,7 @@ expect 0 "other base" -- "$G" reconstruct "${RC[@]}" --densify reference --base 
 check "the training redone for the base" \
     grep -q 'n=6 train: made before with regularize "dropgaussian,decay", now "dropgaussian": done again' "$T/err"
 expect 2 "bad base" -- "$G" reconstruct "${RC[@]}" --base fsgs,turbo --out X
-one_line "--base fsgs,turbo: expected 3dgs, corgs, fsgs, dropgaussian, segs, decay or a comma-separated list of the last five"
+one_line "--base fsgs,turbo: expected 3dgs, corgs, fsgs, dropgaussian, segs, decay, binocular or a comma-separated list of the last six"
 # A folder from before "densify", "regularize" and "resolution_schedule" were recorded was
 # trained with the reference, no regulariser, at full size: kept for those settings.
 cp -r R R3

@@ -78,6 +78,39 @@ for bad in "--decay-until 0" "--decay-until 1.5" "--decay-factor 1" "--decay-fac
     check "$bad explained in one line" test "$(cat "$tmp/err.txt")" = \
         "gaussvid splat train: --decay-factor must be in (0, 1) and --decay-until in (0, 1]"
 done
+# Binocular3DGS's consistency loss with the decay (the release's method): with
+# --binocular-from 0.5 of 120 iterations it runs after iteration 60 and the summary says so;
+# another model than the decay alone, another with another baseline, the same bytes for the
+# same seed (one thread); bad values, and its flags without it, are usage errors.
+bino() { # OUT [more flags]
+    local out="$1"
+    shift
+    "$gaussvid" splat train --scene "$scene" --interval 4 --iters 120 --seed 5 --threads 1 --out "$out" \
+        --regularize decay,binocular --binocular-from 0.5 "$@"
+}
+bino "$tmp/bino1.ply" > "$tmp/bino.txt" 2>&1
+check "decay,binocular trains" test -s "$tmp/bino1.ply"
+check "binocular reports its shifted views" \
+    grep -q "Binocular3DGS consistency: after iteration 60, 60 shifted views, baseline up to" "$tmp/bino.txt"
+check "binocular is named among the regularisers" grep -q "sparse-view regularisers: decay,binocular" "$tmp/bino.txt"
+bino "$tmp/bino2.ply" > /dev/null 2>&1
+check "binocular, one thread: same seed, same model" cmp -s "$tmp/bino1.ply" "$tmp/bino2.ply"
+"$gaussvid" splat train --scene "$scene" --interval 4 --iters 120 --seed 5 --threads 1 --out "$tmp/dec120.ply" \
+    --regularize decay > /dev/null 2>&1
+check "binocular is another model than the decay alone" test -n "$(cmp "$tmp/bino1.ply" "$tmp/dec120.ply")"
+bino "$tmp/bino3.ply" --binocular-baseline 0.05 > /dev/null 2>&1
+check "another baseline, another model" test -s "$tmp/bino3.ply" -a -n "$(cmp "$tmp/bino1.ply" "$tmp/bino3.ply")"
+for bad in "--binocular-from 1" "--binocular-from -0.1" "--binocular-baseline 0" "--binocular-baseline 1"; do
+    bino "$tmp/x.ply" $bad > /dev/null 2> "$tmp/err.txt"
+    check "$bad exits 2" test $? -eq 2
+    check "$bad explained in one line" test "$(cat "$tmp/err.txt")" = \
+        "gaussvid splat train: --binocular-from must be in [0, 1) and --binocular-baseline in (0, 1)"
+done
+train "$tmp/x.ply" --binocular-from 0.5 > /dev/null 2> "$tmp/err.txt"
+check "--binocular-from without binocular exits 2" test $? -eq 2
+check "--binocular-from without binocular explained in one line" test "$(cat "$tmp/err.txt")" = \
+    "gaussvid splat train: --binocular-from and --binocular-baseline need binocular in --regularize"
+check "bad binocular flags: no model" test ! -e "$tmp/x.ply"
 train "$tmp/drop1.ply" --regularize dropgaussian > /dev/null 2>&1
 train "$tmp/drop2.ply" --regularize dropgaussian > /dev/null 2>&1
 check "dropgaussian: same seed, same model" cmp -s "$tmp/drop1.ply" "$tmp/drop2.ply"
