@@ -196,7 +196,7 @@ double gv_splat_median_view_depth(const gv_gaussians *g, int n_views, const gv_s
 {
     size_t cap = (size_t)(g->n > 0 ? g->n : 1) * (size_t)(n_views > 0 ? n_views : 1);
     float *z = malloc(cap * sizeof(float));
-    if (!z) return 0;
+    if (!z) return -1;
     size_t count = 0;
     for (int v = 0; v < n_views; v++) {
         const gv_splat_view *w = &views[v];

@@ -211,6 +211,9 @@ static int binocular_init(gv_splat_trainer *t)
     gv_splat_binocular *b = &t->binocular;
     b->from = (int)floor(t->opt.binocular_from * t->opt.iterations + 0.5);
     b->depth = gv_splat_median_view_depth(&t->params, t->n_views, t->views);
+    if (b->depth < 0)
+        return gv_fail("train: binocular: out of memory for the depths of %d Gaussians in %d views",
+                       t->params.n, t->n_views);
     if (!(b->depth > 0))
         return gv_fail("train: binocular: no initial Gaussian is in front of a training camera, "
                        "so there is no depth to scale the baseline by");

@@ -298,7 +298,7 @@ void gv_splat_binocular_work_free(gv_splat_binocular_work *w);
 void gv_splat_view_shifted(const gv_splat_view *v, double baseline, gv_splat_view *out);
 /* The median view depth z of the centres of g over the views, counting each (Gaussian,
  * view) pair whose centre is beyond the near plane and projects into the image; 0 when none
- * does. The scale of the baseline. */
+ * does, -1 when memory runs out. The scale of the baseline. */
 double gv_splat_median_view_depth(const gv_gaussians *g, int n_views, const gv_splat_view *views);
 
 /* The term's state in a training run. */
