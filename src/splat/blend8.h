@@ -79,19 +79,20 @@ static SIMD8_INLINE int clamp_to_int(float v, int lo, int hi)
 }
 
 /* Loads Gaussian g of the per-Gaussian arrays and clips its alpha box to the tile, as the
- * image's forward (rasterize.c, pack_splats and load_splat) computes the box: every pixel
- * the image blended is inside it. power_min is left at -INFINITY (every pixel of the box is
- * tested). Returns 0 when the Gaussian cannot blend in this tile. For the passes that walk
- * the image's tiles again: the depth forward and its backward. */
+ * image's forward (rasterize.c, pack_splats and load_splat) computes the box and the bound
+ * power_min: every pixel the image blended is inside the box, and no group of pixels whose
+ * powers are all below the bound holds one. Returns 0 when the Gaussian cannot blend in this
+ * tile. For the passes that walk the image's tiles again: the depth forward and its
+ * backward. */
 static SIMD8_INLINE int tile_splat_load(tile_splat *s, int g, const float *means2d,
                                         const float *conics, const float *opacities, int px0,
                                         int py0, int tw, int th)
 {
     float A = conics[3 * g], B = conics[3 * g + 1], C = conics[3 * g + 2], o = opacities[g];
     if (!(o >= GV_SPLAT_ALPHA_MIN)) return 0; /* o exp(power) <= o */
-    float hx = INFINITY, hy = INFINITY, det = A * C - B * B;
+    float hx = INFINITY, hy = INFINITY, det = A * C - B * B, log_o = logf(255.0f * o);
     if (det > 0 && A > 0) {
-        float level = 2.0f * (logf(255.0f * o) + 0.1f);
+        float level = 2.0f * (log_o + 0.1f);
         hx = sqrtf(level * C / det) + 0.01f;
         hy = sqrtf(level * A / det) + 0.01f;
     }
@@ -104,7 +105,7 @@ static SIMD8_INLINE int tile_splat_load(tile_splat *s, int g, const float *means
     if (s->x0 > s->x1 || s->y0 > s->y1) return 0;
     s->x0 &= ~7;
     s->A = A, s->B = B, s->C = C, s->o = o;
-    s->power_min = -INFINITY;
+    s->power_min = -log_o - 1e-3f; /* rasterize.c, pack_splats: alpha < 1/255 below it */
     return 1;
 }
 

@@ -63,6 +63,7 @@ static SIMD8_INLINE void entry_depth_backward(depth_grad_state *st, const tile_s
             if (!i8_any(m)) continue;
             f8 dx = s->mx - (centres + (float)x), G;
             f8 power = gaussian_power(s->A, s->B, dx, dy, cdd);
+            if (!i8_any(m & (power >= s->power_min))) continue; /* alpha < 1/255 at all */
             f8 alpha = gaussian_alpha(s->o, power, &G);
             m &= (power <= 0.0f) & (alpha >= GV_SPLAT_ALPHA_MIN); /* ... if it counted here */
             if (!i8_any(m)) continue;
