@@ -121,7 +121,7 @@ int cmd_splat_train(int argc, char **argv)
         "             model's own depth, and compared with the photo (L1, plus 0.05 x an\n"
         "             edge-aware smoothness of the disparity); the gradient reaches the\n"
         "             shifted render and the depth. decay,binocular is the release's full\n"
-        "             method. About twice the time per iteration while it runs\n"
+        "             method. About three times the time per iteration while it runs\n"
         "--iters N stops the schedule early (nothing is rescaled; the drop share\n"
         "follows --iters).\n"
         "Resolution scheduling (--resolution-schedule K, after DashGaussian): iterations\n"
