@@ -502,6 +502,69 @@ static int rows_cover(const int *rows, int n, const gv_splat_tiles *t)
     return 1;
 }
 
+/* gv_splat_trainer_add_gradient, which CoR-GS's pseudo view and Binocular3DGS's shifted view
+ * call: another render's gradient added on its rows and nowhere else, and Adam given the union
+ * of its rows with those a term listed before, or, when none did, with the render's visible
+ * rows (ascending, each once). */
+static void test_add_gradient(const tiny_scene *s)
+{
+    gv_splat_train_options o;
+    short_options(&o, 10);
+    gv_splat_trainer t;
+    REQUIRE(gv_splat_trainer_init(&t, &o, VIEWS, s->cams, s->images, extent_of(s), TRUE_N, s->points, NULL) == 0);
+    REQUIRE(gv_splat_trainer_forward_backward(&t) == 0);
+    int n = t.params.n, w = 3 * gv_sh_coefficient_count(t.grad.sh_degree);
+    REQUIRE(n == TRUE_N);
+    gv_gaussians before, other;
+    REQUIRE(gv_gaussians_alloc(&before, n, t.grad.sh_degree) == 0);
+    REQUIRE(gv_gaussians_alloc(&other, n, t.grad.sh_degree) == 0);
+    memcpy(before.means, t.grad.means, sizeof(float) * 3 * n);
+    memcpy(before.scales, t.grad.scales, sizeof(float) * 3 * n);
+    memcpy(before.rotations, t.grad.rotations, sizeof(float) * 4 * n);
+    memcpy(before.sh, t.grad.sh, sizeof(float) * w * n);
+    memcpy(before.opacities, t.grad.opacities, sizeof(float) * n);
+    for (int i = 0; i < n; i++) {
+        for (int a = 0; a < 3; a++) other.means[3 * i + a] = other.scales[3 * i + a] = (float)(i + 1);
+        for (int a = 0; a < 4; a++) other.rotations[4 * i + a] = (float)(i + 1);
+        for (int a = 0; a < w; a++) other.sh[w * i + a] = (float)(i + 1);
+        other.opacities[i] = (float)(i + 1);
+    }
+    const int seen[3] = {1, 3, n - 1}, listed[3] = {0, 3, 7};
+    int *rows = NULL, capacity = 0;
+    t.update_rows = listed, t.n_update_rows = 3;
+    CHECK(gv_splat_trainer_add_gradient(&t, &other, seen, 3, &rows, &capacity) == 0);
+    CHECK(t.update_rows == rows && t.n_update_rows == 5);
+    const int want[5] = {0, 1, 3, 7, n - 1};
+    for (int k = 0; k < 5 && t.n_update_rows == 5; k++) CHECK(rows[k] == want[k]);
+    int added_right = 1;
+    for (int i = 0; i < n; i++) {
+        float add = i == 1 || i == 3 || i == n - 1 ? (float)(i + 1) : 0.0f;
+        for (int a = 0; a < 3; a++)
+            added_right &= t.grad.means[3 * i + a] == before.means[3 * i + a] + add &&
+                           t.grad.scales[3 * i + a] == before.scales[3 * i + a] + add;
+        for (int a = 0; a < 4; a++) added_right &= t.grad.rotations[4 * i + a] == before.rotations[4 * i + a] + add;
+        for (int a = 0; a < w; a++) added_right &= t.grad.sh[w * i + a] == before.sh[w * i + a] + add;
+        added_right &= t.grad.opacities[i] == before.opacities[i] + add;
+    }
+    CHECK(added_right);
+    /* no term listed rows: the union is the render's visible rows and the other's */
+    const gv_splat_tiles *vis = &t.renderer.tiles;
+    int last_seen = 0;
+    for (int k = 0; k < vis->n_visible; k++) last_seen |= vis->visible[k] == n - 1;
+    t.update_rows = NULL, t.n_update_rows = 0;
+    CHECK(gv_splat_trainer_add_gradient(&t, &other, seen + 2, 1, &rows, &capacity) == 0);
+    CHECK(t.update_rows == rows && t.n_update_rows == vis->n_visible + !last_seen);
+    int ascending = 1, has_seen = 0;
+    for (int k = 0; k < t.n_update_rows; k++) {
+        ascending &= k == 0 || rows[k] > rows[k - 1];
+        has_seen |= rows[k] == n - 1;
+    }
+    CHECK(ascending && has_seen && rows_cover(rows, t.n_update_rows, vis));
+    free(rows);
+    gv_gaussians_free(&before), gv_gaussians_free(&other);
+    gv_splat_trainer_free(&t);
+}
+
 /* binocular (Binocular3DGS's consistency term), with decay: the release's method. The same
  * model as decay alone through iteration `from` (its randomness is a stream of its own),
  * another from the next; the same model twice with one thread; one shifted view per
@@ -545,8 +608,8 @@ static void test_binocular(const tiny_scene *s)
      * views) and shifts of up to half the depth, the shifted view sees Gaussians the training
      * view does not; with --sparse-adam only the rows given step and have their gradient
      * consumed. Also with CoR-GS's two fields and pseudo-view term (from 20 here): every
-     * gradient consumed (here the pseudo views' rows happen to hold the shifted views' too,
-     * so this runs the combination without telling whether corgs.c kept the binocular rows). */
+     * gradient consumed (here the pseudo views' rows happen to hold the shifted views' too;
+     * that the pseudo view keeps the rows binocular listed is test_add_gradient's). */
     enum { WIDE = 24 };
     float points[3 * (TRUE_N + WIDE)];
     memcpy(points, s->points, sizeof(float) * 3 * TRUE_N);
@@ -619,6 +682,7 @@ int main(void)
     test_lean(&s);
     test_resolution_schedule(&s);
     test_decay(&s);
+    test_add_gradient(&s);
     test_binocular(&s);
     omp_set_num_threads(threads < 2 ? 2 : threads);
     test_deterministic(&s, GV_DENSIFY_LEAN);

@@ -269,46 +269,6 @@ int gv_splat_binocular_forward_backward(gv_splat_binocular *b, gv_splat_trainer 
     return 0;
 }
 
-/* rows = the union of the ascending lists x and y (corgs.c has the same). */
-static int merge_rows(const int *x, int nx, const int *y, int ny, int *rows)
-{
-    int i = 0, j = 0, n = 0;
-    while (i < nx || j < ny) {
-        int v = j >= ny || (i < nx && x[i] <= y[j]) ? x[i] : y[j];
-        if (i < nx && x[i] == v) i++;
-        if (j < ny && y[j] == v) j++;
-        rows[n++] = v;
-    }
-    return n;
-}
-
-int gv_splat_binocular_add_gradient(gv_splat_binocular *b, gv_splat_trainer *t)
-{
-    const gv_splat_tiles *own = &t->renderer.tiles, *moved = &b->renderer.tiles;
-    int need = own->n_visible + moved->n_visible;
-    if (need > b->rows_capacity) {
-        int *r = realloc(b->rows, (size_t)(need > 0 ? need : 1) * sizeof(int));
-        if (!r) return gv_fail("binocular: out of memory for %d rows", need);
-        b->rows = r, b->rows_capacity = need;
-    }
-    const gv_gaussians *src = &b->grad;
-    gv_gaussians *dst = &t->grad;
-    int w = 3 * gv_sh_coefficient_count(dst->sh_degree);
-#pragma omp parallel for schedule(static)
-    for (int m = 0; m < moved->n_visible; m++) {
-        size_t i = (size_t)moved->visible[m];
-        for (int a = 0; a < 3; a++) dst->means[3 * i + a] += src->means[3 * i + a];
-        for (int a = 0; a < 3; a++) dst->scales[3 * i + a] += src->scales[3 * i + a];
-        for (int a = 0; a < 4; a++) dst->rotations[4 * i + a] += src->rotations[4 * i + a];
-        for (int a = 0; a < w; a++) dst->sh[w * i + a] += src->sh[w * i + a];
-        dst->opacities[i] += src->opacities[i];
-    }
-    t->n_update_rows = merge_rows(own->visible, own->n_visible, moved->visible, moved->n_visible,
-                                  b->rows);
-    t->update_rows = b->rows;
-    return 0;
-}
-
 void gv_splat_binocular_free(gv_splat_binocular *b)
 {
     gv_splat_renderer_free(&b->renderer);

@@ -120,50 +120,6 @@ void gv_splat_corgs_free(gv_splat_corgs *c)
     memset(c, 0, sizeof *c);
 }
 
-/* rows = the union of the ascending lists x and y. */
-static int merge(const int *x, int nx, const int *y, int ny, int *rows)
-{
-    int i = 0, j = 0, n = 0;
-    while (i < nx || j < ny) {
-        int v = j >= ny || (i < nx && x[i] <= y[j]) ? x[i] : y[j];
-        if (i < nx && x[i] == v) i++;
-        if (j < ny && y[j] == v) j++;
-        rows[n++] = v;
-    }
-    return n;
-}
-
-/* Adds the pseudo-view gradient of field k to its trainer's and gives Adam the union of the
- * two renders' rows. */
-static int add_gradient(gv_splat_corgs *c, int k, gv_splat_trainer *t)
-{
-    const gv_splat_tiles *own = &t->renderer.tiles, *pseudo = &c->renderer[k].tiles;
-    /* the rows with a gradient so far: the render's, or those another term set (binocular) */
-    const int *own_rows = t->update_rows ? t->update_rows : own->visible;
-    int n_own = t->update_rows ? t->n_update_rows : own->n_visible;
-    int need = n_own + pseudo->n_visible;
-    if (need > c->rows_capacity[k]) {
-        int *r = realloc(c->rows[k], (size_t)need * sizeof(int));
-        if (!r) return gv_fail("corgs: out of memory for %d rows", need);
-        c->rows[k] = r, c->rows_capacity[k] = need;
-    }
-    const gv_gaussians *src = &c->grad[k];
-    gv_gaussians *dst = &t->grad;
-    int w = 3 * gv_sh_coefficient_count(dst->sh_degree);
-#pragma omp parallel for schedule(static)
-    for (int m = 0; m < pseudo->n_visible; m++) {
-        size_t i = (size_t)pseudo->visible[m];
-        for (int a = 0; a < 3; a++) dst->means[3 * i + a] += src->means[3 * i + a];
-        for (int a = 0; a < 3; a++) dst->scales[3 * i + a] += src->scales[3 * i + a];
-        for (int a = 0; a < 4; a++) dst->rotations[4 * i + a] += src->rotations[4 * i + a];
-        for (int a = 0; a < w; a++) dst->sh[w * i + a] += src->sh[w * i + a];
-        dst->opacities[i] += src->opacities[i];
-    }
-    t->n_update_rows = merge(own_rows, n_own, pseudo->visible, pseudo->n_visible, c->rows[k]);
-    t->update_rows = c->rows[k];
-    return 0;
-}
-
 /* A camera between two consecutive training views of a, at a uniform position. */
 static int pseudo_view(gv_splat_corgs *c, const gv_splat_trainer *a, gv_splat_view *view)
 {
@@ -188,9 +144,13 @@ static int pseudo_term(gv_splat_corgs *c, gv_splat_trainer *a, gv_splat_trainer 
     double loss;
     if (pseudo_view(c, a, &view) != 0 ||
         gv_splat_corgs_pseudo_grad(c, &a->params, &b->params, &view, a->active_degree,
-                                   a->opt.lambda_dssim, c->weight, &c->grad[0], &c->grad[1], &loss) != 0 ||
-        add_gradient(c, 0, a) != 0 || add_gradient(c, 1, b) != 0)
+                                   a->opt.lambda_dssim, c->weight, &c->grad[0], &c->grad[1], &loss) != 0)
         return -1;
+    for (int k = 0; k < 2; k++) /* each field's pseudo-view gradient and rows to its trainer */
+        if (gv_splat_trainer_add_gradient(t[k], &c->grad[k], c->renderer[k].tiles.visible,
+                                          c->renderer[k].tiles.n_visible, &c->rows[k],
+                                          &c->rows_capacity[k]) != 0)
+            return -1;
     c->pseudo_views++;
     return 0;
 }

@@ -425,6 +425,47 @@ int gv_splat_trainer_rows_changed(gv_splat_trainer *t)
     return resize_buffers(t);
 }
 
+/* out = the union of the ascending lists x and y, ascending; returns its length. */
+static int merge_rows(const int *x, int nx, const int *y, int ny, int *out)
+{
+    int i = 0, j = 0, n = 0;
+    while (i < nx || j < ny) {
+        int v = j >= ny || (i < nx && x[i] <= y[j]) ? x[i] : y[j];
+        if (i < nx && x[i] == v) i++;
+        if (j < ny && y[j] == v) j++;
+        out[n++] = v;
+    }
+    return n;
+}
+
+int gv_splat_trainer_add_gradient(gv_splat_trainer *t, const gv_gaussians *grad, const int *seen,
+                                  int n_seen, int **rows, int *capacity)
+{
+    /* the rows with a gradient so far: the render's, or those another term listed */
+    const int *own = t->update_rows ? t->update_rows : t->renderer.tiles.visible;
+    int n_own = t->update_rows ? t->n_update_rows : t->renderer.tiles.n_visible;
+    int need = n_own + n_seen;
+    if (need > *capacity) {
+        int *r = realloc(*rows, (size_t)(need > 0 ? need : 1) * sizeof(int));
+        if (!r) return gv_fail("train: out of memory for a list of %d rows", need);
+        *rows = r, *capacity = need;
+    }
+    gv_gaussians *dst = &t->grad;
+    int w = 3 * gv_sh_coefficient_count(dst->sh_degree);
+#pragma omp parallel for schedule(static)
+    for (int m = 0; m < n_seen; m++) {
+        size_t i = (size_t)seen[m];
+        for (int a = 0; a < 3; a++) dst->means[3 * i + a] += grad->means[3 * i + a];
+        for (int a = 0; a < 3; a++) dst->scales[3 * i + a] += grad->scales[3 * i + a];
+        for (int a = 0; a < 4; a++) dst->rotations[4 * i + a] += grad->rotations[4 * i + a];
+        for (int a = 0; a < w; a++) dst->sh[w * i + a] += grad->sh[w * i + a];
+        dst->opacities[i] += grad->opacities[i];
+    }
+    t->n_update_rows = merge_rows(own, n_own, seen, n_seen, *rows);
+    t->update_rows = *rows;
+    return 0;
+}
+
 /* Steps 5 and 6 of the reference: density control, then Adam (skipped in an iteration
  * that densified). */
 static int reference_update(gv_splat_trainer *t, double seconds[2])
@@ -538,7 +579,9 @@ int gv_splat_trainer_forward_backward(gv_splat_trainer *t)
     double t3 = gv_now();
     if (gv_splat_render_backward_depth(&t->renderer, &t->params, t->d_render,
                                        bino ? bino->d_depth_sum : NULL, &t->grad, t->densify_grad) ||
-        (bino && gv_splat_binocular_add_gradient(bino, t) != 0))
+        (bino && gv_splat_trainer_add_gradient(t, &bino->grad, bino->renderer.tiles.visible,
+                                                bino->renderer.tiles.n_visible, &bino->rows,
+                                                &bino->rows_capacity) != 0))
         return gv_fail_context("train: iteration %d", it);
     double t4 = gv_now();
     t->seconds[GV_PHASE_RENDER] += t1 - t0, t->seconds[GV_PHASE_LOSS] += t2 - t1;

@@ -468,7 +468,7 @@ int gv_splat_trainer_init(gv_splat_trainer *t, const gv_splat_train_options *opt
 /* Runs the next iteration: gv_splat_trainer_forward_backward, then gv_splat_trainer_update.
  * Between the two a caller may add gradients of its own to t->grad (CoR-GS's pseudo-view
  * term): on rows outside the render's visible list it must then set update_rows to the
- * ascending list of every row with a gradient. */
+ * ascending list of every row with a gradient (gv_splat_trainer_add_gradient does both). */
 int gv_splat_trainer_step(gv_splat_trainer *t);
 /* Steps 1-4: the next iteration's view, render, loss and backward into t->grad. */
 int gv_splat_trainer_forward_backward(gv_splat_trainer *t);
@@ -477,6 +477,14 @@ int gv_splat_trainer_update(gv_splat_trainer *t);
 /* After rows of t->params (and its Adam moments) were added or removed outside the step:
  * the gradient and statistics buffers follow, zeroed (as after a densification). */
 int gv_splat_trainer_rows_changed(gv_splat_trainer *t);
+/* Between the two halves of an iteration, for a term that renders t->params again (CoR-GS's
+ * pseudo view, Binocular3DGS's shifted view): adds grad, that render's gradient, on its
+ * visible rows seen[0 .. n_seen) (ascending) to t->grad, and gives Adam the union of those
+ * rows and the rows with a gradient so far (update_rows when a term set it, else t's render's
+ * visible rows). The union is kept in *rows, grown to *capacity as needed (the caller's,
+ * which frees it; not the list update_rows points to). */
+int gv_splat_trainer_add_gradient(gv_splat_trainer *t, const gv_gaussians *grad, const int *seen,
+                                  int n_seen, int **rows, int *capacity);
 /* Binocular3DGS's term at the iteration's view (after t's render of it, before its
  * backward): renders the view shifted by a random baseline, computes the loss (times weight)
  * and the shifted render's gradient; b->d_depth_sum is then dL/d the accumulated depth of
@@ -485,9 +493,6 @@ int gv_splat_binocular_forward_backward(gv_splat_binocular *b, gv_splat_trainer 
                                         const gv_splat_view *view, const float bg[3],
                                         const float *opacity_scale, const float *target,
                                         double weight);
-/* After t's backward: adds the shifted render's gradient to t->grad and gives Adam the
- * union of the two renders' rows. */
-int gv_splat_binocular_add_gradient(gv_splat_binocular *b, gv_splat_trainer *t);
 void gv_splat_binocular_free(gv_splat_binocular *b);
 /* CoR-GS's pseudo-view co-regularisation (corgs.c): the two fields rendered at a camera
  * between two training views, each pulled towards the other's render by
