@@ -128,6 +128,18 @@ static inline void fix_add(fix_compare *c, double analytic, double numeric)
     if (c->count < FIX_MAX_PAIRS) c->a[c->count] = analytic, c->n[c->count] = numeric, c->count++;
 }
 
+/* Adds to c the pairs (analytic[j], central difference of f in params[j]) for j < count, step
+ * h; a value whose every step crosses a discontinuity is counted as skipped. */
+static inline void fix_add_params(fix_compare *c, fix_eval_fn f, void *ctx, uint64_t s0,
+                                  double *params, const float *analytic, int count, double h)
+{
+    for (int j = 0; j < count; j++) {
+        double num;
+        if (fix_derivative(f, ctx, s0, params + j, h, &num)) c->skipped++;
+        else fix_add(c, analytic[j], num);
+    }
+}
+
 /* Prints the maximum relative error and checks it against tol. */
 static inline double fix_report(const fix_compare *c, double tol)
 {

@@ -158,13 +158,8 @@ static void test_term_gradients(void)
     CHECK(value.valid_pixels > NPIX / 2 && value.valid_pixels < NPIX - W); /* both bands out */
     static fix_compare cs = {"shifted render", 0, 0, {0}, {0}}, cd = {"accumulated depth", 0, 0, {0}, {0}};
     for (int p = 0; p < NPIX; p += 3) {
-        double num;
-        for (int k = 0; k < 3; k++) {
-            if (fix_derivative(term_loss, &c, s0, c.shifted + 3 * p + k, 1e-6, &num)) cs.skipped++;
-            else fix_add(&cs, d_shifted[3 * p + k], num);
-        }
-        if (fix_derivative(term_loss, &c, s0, c.D + p, 1e-6 * fmax(c.D[p], 1e-3), &num)) cd.skipped++;
-        else fix_add(&cd, d_D[p], num);
+        fix_add_params(&cs, term_loss, &c, s0, c.shifted + 3 * p, d_shifted + 3 * p, 3, 1e-6);
+        fix_add_params(&cd, term_loss, &c, s0, c.D + p, d_D + p, 1, 1e-6 * fmax(c.D[p], 1e-3));
     }
     fix_report(&cs, 1e-3);
     fix_report(&cd, 1e-3);
@@ -252,16 +247,9 @@ static void test_warp_and_smoothness_gradients(void)
     static fix_compare ci = {"warp: image", 0, 0, {0}, {0}}, cdisp = {"warp: disparity", 0, 0, {0}, {0}};
     static fix_compare csm = {"smoothness: disparity", 0, 0, {0}, {0}};
     for (int p = 0; p < NPIX; p++) {
-        double num;
-        if (p % 2 == 0)
-            for (int k = 0; k < 3; k++) {
-                if (fix_derivative(warp_loss, &c, s0, c.image + 3 * p + k, 1e-6, &num)) ci.skipped++;
-                else fix_add(&ci, d_image[3 * p + k], num);
-            }
-        if (fix_derivative(warp_loss, &c, s0, c.disp + p, 1e-6, &num)) cdisp.skipped++;
-        else fix_add(&cdisp, d_disp[p], num);
-        if (fix_derivative(smooth_loss, &c, s1, c.disp + p, 1e-6, &num)) csm.skipped++;
-        else fix_add(&csm, d_smooth[p], num);
+        if (p % 2 == 0) fix_add_params(&ci, warp_loss, &c, s0, c.image + 3 * p, d_image + 3 * p, 3, 1e-6);
+        fix_add_params(&cdisp, warp_loss, &c, s0, c.disp + p, d_disp + p, 1, 1e-6);
+        fix_add_params(&csm, smooth_loss, &c, s1, c.disp + p, d_smooth + p, 1, 1e-6);
     }
     fix_report(&ci, 1e-4);
     fix_report(&cdisp, 1e-4);
@@ -381,20 +369,10 @@ static void test_through_renders(void)
         int v2 = gv_splat_reference_project(c.means + 3 * i, c.scales + 3 * i, c.rotations + 4 * i, &moved, &p2);
         if ((!v1 && !v2) || (v1 && (p1.clamp_x || p1.clamp_y)) || (v2 && (p2.clamp_x || p2.clamp_y)))
             continue; /* the clamped Jacobian's gradient is 3DGS's, not exact */
-        struct { fix_compare *cmp; double *param; const float *analytic; int count; } kinds[] = {
-            {&cm, c.means + 3 * i, grad.means + 3 * i, 3},
-            {&co, c.opacities + i, grad.opacities + i, 1},
-            {&cs, c.scales + 3 * i, grad.scales + 3 * i, 3},
-            {&csh, c.sh + 3 * i, grad.sh + 3 * i, 1},
-        };
-        for (int kind = 0; kind < 4; kind++)
-            for (int j = 0; j < kinds[kind].count; j++) {
-                double num;
-                if (fix_derivative(render_loss, &c, s0, kinds[kind].param + j, 1e-6, &num))
-                    kinds[kind].cmp->skipped++;
-                else
-                    fix_add(kinds[kind].cmp, kinds[kind].analytic[j], num);
-            }
+        fix_add_params(&cm, render_loss, &c, s0, c.means + 3 * i, grad.means + 3 * i, 3, 1e-6);
+        fix_add_params(&co, render_loss, &c, s0, c.opacities + i, grad.opacities + i, 1, 1e-6);
+        fix_add_params(&cs, render_loss, &c, s0, c.scales + 3 * i, grad.scales + 3 * i, 3, 1e-6);
+        fix_add_params(&csh, render_loss, &c, s0, c.sh + 3 * i, grad.sh + 3 * i, 1, 1e-6);
     }
     fix_report(&cm, 5e-3);
     fix_report(&co, 5e-3);

@@ -165,21 +165,11 @@ static void test_gradients(int n, double o_lo, uint64_t seed, int stack)
     uint64_t s0;
     depth_loss(&c, &s0);
     for (int i = 0; i < s.n; i++) {
-        struct { fix_compare *cmp; double *param; const float *analytic; int count; } kinds[] = {
-            {&cmp_m2, c.m2 + 2 * i, out.d_m2 + 2 * i, 2},
-            {&cmp_conic, c.conic + 3 * i, out.d_conic + 3 * i, 3},
-            {&cmp_opacity, c.opacity + i, out.d_opacity + i, 1},
-            {&cmp_z, c.z + i, out.d_depth + i, 1},
-        };
         if (s.radii[i] == 0) continue;
-        for (int kind = 0; kind < 4; kind++)
-            for (int j = 0; j < kinds[kind].count; j++) {
-                double num;
-                if (fix_derivative(depth_loss, &c, s0, kinds[kind].param + j, 1e-6, &num))
-                    kinds[kind].cmp->skipped++;
-                else
-                    fix_add(kinds[kind].cmp, kinds[kind].analytic[j], num);
-            }
+        fix_add_params(&cmp_m2, depth_loss, &c, s0, c.m2 + 2 * i, out.d_m2 + 2 * i, 2, 1e-6);
+        fix_add_params(&cmp_conic, depth_loss, &c, s0, c.conic + 3 * i, out.d_conic + 3 * i, 3, 1e-6);
+        fix_add_params(&cmp_opacity, depth_loss, &c, s0, c.opacity + i, out.d_opacity + i, 1, 1e-6);
+        fix_add_params(&cmp_z, depth_loss, &c, s0, c.z + i, out.d_depth + i, 1, 1e-6);
     }
     fix_report(&cmp_m2, 2e-3);
     fix_report(&cmp_conic, 2e-3);
@@ -308,20 +298,10 @@ static void test_chain(void)
             p.clamp_x || p.clamp_y) /* the clamped Jacobian's gradient is 3DGS's, not exact */
             continue;
         visible++;
-        struct { fix_compare *cmp; double *param; const float *analytic; int count; } kinds[] = {
-            {&means, c.means + 3 * i, grad.means + 3 * i, 3},
-            {&scales, c.scales + 3 * i, grad.scales + 3 * i, 3},
-            {&rots, c.rotations + 4 * i, grad.rotations + 4 * i, 4},
-            {&ops, c.opacities + i, grad.opacities + i, 1},
-        };
-        for (int kind = 0; kind < 4; kind++)
-            for (int j = 0; j < kinds[kind].count; j++) {
-                double num;
-                if (fix_derivative(chain_loss, &c, s0, kinds[kind].param + j, 1e-6, &num))
-                    kinds[kind].cmp->skipped++;
-                else
-                    fix_add(kinds[kind].cmp, kinds[kind].analytic[j], num);
-            }
+        fix_add_params(&means, chain_loss, &c, s0, c.means + 3 * i, grad.means + 3 * i, 3, 1e-6);
+        fix_add_params(&scales, chain_loss, &c, s0, c.scales + 3 * i, grad.scales + 3 * i, 3, 1e-6);
+        fix_add_params(&rots, chain_loss, &c, s0, c.rotations + 4 * i, grad.rotations + 4 * i, 4, 1e-6);
+        fix_add_params(&ops, chain_loss, &c, s0, c.opacities + i, grad.opacities + i, 1, 1e-6);
     }
     printf("  image and accumulated-depth loss through the projection, %d Gaussians checked "
            "(max relative |D - reference| %.2e):\n", visible, worst_d);

@@ -334,19 +334,9 @@ static void test_gradients(void)
         }
         uint64_t s0;
         projection_loss(&c, &s0);
-        struct { fix_compare *cmp; double *param; const float *analytic; int count; } kinds[] = {
-            {&cmp_mean, c.mean, gmean + 3 * i, 3},
-            {&cmp_scale, c.scale, gscale + 3 * i, 3},
-            {&cmp_quat, c.quat, grot + 4 * i, 4},
-        };
-        for (int kind = 0; kind < 3; kind++)
-            for (int j = 0; j < kinds[kind].count; j++) {
-                double num;
-                if (fix_derivative(projection_loss, &c, s0, kinds[kind].param + j, 1e-6, &num))
-                    kinds[kind].cmp->skipped++;
-                else
-                    fix_add(kinds[kind].cmp, kinds[kind].analytic[j], num);
-            }
+        fix_add_params(&cmp_mean, projection_loss, &c, s0, c.mean, gmean + 3 * i, 3, 1e-6);
+        fix_add_params(&cmp_scale, projection_loss, &c, s0, c.scale, gscale + 3 * i, 3, 1e-6);
+        fix_add_params(&cmp_quat, projection_loss, &c, s0, c.quat, grot + 4 * i, 4, 1e-6);
     }
     printf("  projection gradients: %d visible Gaussians (%d with a clamped Jacobian left out)\n",
            n_list, clamped);

@@ -330,21 +330,11 @@ static void test_gradients(int n, double o_lo, uint64_t seed, int stride, int st
     raster_loss(&c, &s0);
     for (int i = 0; i < s.n; i++) {
         if (i % stride && i < n) continue; /* every stacked one is checked */
-        struct { fix_compare *cmp; double *param; const float *analytic; int count; } kinds[] = {
-            {&cmp_m2, c.m2 + 2 * i, out.d_m2 + 2 * i, 2},
-            {&cmp_conic, c.conic + 3 * i, out.d_conic + 3 * i, 3},
-            {&cmp_color, c.color + 3 * i, out.d_color + 3 * i, 3},
-            {&cmp_opacity, c.opacity + i, out.d_opacity + i, 1},
-        };
         if (s.radii[i] == 0) continue;
-        for (int kind = 0; kind < 4; kind++)
-            for (int j = 0; j < kinds[kind].count; j++) {
-                double num;
-                if (fix_derivative(raster_loss, &c, s0, kinds[kind].param + j, 1e-6, &num))
-                    kinds[kind].cmp->skipped++;
-                else
-                    fix_add(kinds[kind].cmp, kinds[kind].analytic[j], num);
-            }
+        fix_add_params(&cmp_m2, raster_loss, &c, s0, c.m2 + 2 * i, out.d_m2 + 2 * i, 2, 1e-6);
+        fix_add_params(&cmp_conic, raster_loss, &c, s0, c.conic + 3 * i, out.d_conic + 3 * i, 3, 1e-6);
+        fix_add_params(&cmp_color, raster_loss, &c, s0, c.color + 3 * i, out.d_color + 3 * i, 3, 1e-6);
+        fix_add_params(&cmp_opacity, raster_loss, &c, s0, c.opacity + i, out.d_opacity + i, 1, 1e-6);
     }
     fix_report(&cmp_m2, 2e-3);
     fix_report(&cmp_conic, 2e-3);
