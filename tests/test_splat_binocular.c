@@ -1,5 +1,5 @@
 /* Binocular3DGS's consistency loss (src/splat/binocular.c): the `binocular` name in the
- * --regularize parser; the row warp on hand values (interpolation weights, the columns that
+ * --regularize parser (and in no default); the row warp on hand values (interpolation weights, the columns that
  * fall outside); the warp's gradient with respect to the image and the disparity, the
  * edge-aware smoothness's, and the whole term's with respect to the shifted render and the
  * accumulated depth, against central differences of an independent double-precision
@@ -22,6 +22,9 @@ static void test_parse(void)
     gv_splat_regularize_name(set, name, sizeof name);
     CHECK(strcmp(name, "decay,binocular") == 0);
     CHECK(gv_splat_regularize_parse(name) == set);
+    /* opt-in only: in no density control's default */
+    gv_splat_densify_mode modes[] = {GV_DENSIFY_LEAN, GV_DENSIFY_REFERENCE, GV_DENSIFY_MCMC};
+    for (int m = 0; m < 3; m++) CHECK(!(gv_splat_regularize_default(modes[m]) & GV_REGULARIZE_BINOCULAR));
 }
 
 /* A 6 x 2 image whose channel c at column x, row y is 10 y + x + c / 10. */

@@ -72,16 +72,24 @@ train "$tmp/mcmc_none.ply" --densify mcmc --regularize none > /dev/null 2>&1
 check "with mcmc the default is plain 3DGS" cmp -s "$tmp/mcmc_default.ply" "$tmp/mcmc_none.ply"
 train "$tmp/x.ply" --densify mcmc --regularize decay > /dev/null 2> "$tmp/err.txt"
 check "decay with mcmc refused" test $? -eq 1 -a -n "$(grep -i "decay" "$tmp/err.txt")" -a ! -e "$tmp/x.ply"
-for bad in "--decay-until 0" "--decay-until 1.5" "--decay-factor 1" "--decay-factor 0"; do
-    train "$tmp/x.ply" $bad > /dev/null 2> "$tmp/err.txt"
-    check "$bad exits 2" test $? -eq 2
-    check "$bad explained in one line" test "$(cat "$tmp/err.txt")" = \
-        "gaussvid splat train: --decay-factor must be in (0, 1) and --decay-until in (0, 1]"
-done
+# usage_errors RUN MESSAGE BAD...: for each BAD (flags), `RUN x.ply BAD` exits 2 with the one
+# line "gaussvid splat train: MESSAGE".
+usage_errors() {
+    local run="$1" message="$2" bad
+    shift 2
+    for bad in "$@"; do
+        "$run" "$tmp/x.ply" $bad > /dev/null 2> "$tmp/err.txt"
+        check "$bad exits 2" test $? -eq 2
+        check "$bad explained in one line" test "$(cat "$tmp/err.txt")" = "gaussvid splat train: $message"
+    done
+}
+usage_errors train "--decay-factor must be in (0, 1) and --decay-until in (0, 1]" \
+    "--decay-until 0" "--decay-until 1.5" "--decay-factor 1" "--decay-factor 0"
 # Binocular3DGS's consistency loss with the decay (the release's method): with
 # --binocular-from 0.5 of 120 iterations it runs after iteration 60 and the summary says so;
 # another model than the decay alone, another with another baseline, the same bytes for the
-# same seed (one thread); bad values, and its flags without it, are usage errors.
+# same seed (one thread); not in the default; bad values, and its flags without it, are usage
+# errors.
 bino() { # OUT [more flags]
     local out="$1"
     shift
@@ -98,14 +106,15 @@ check "binocular, one thread: same seed, same model" cmp -s "$tmp/bino1.ply" "$t
 "$gaussvid" splat train --scene "$scene" --interval 4 --iters 120 --seed 5 --threads 1 --out "$tmp/dec120.ply" \
     --regularize decay > /dev/null 2>&1
 check "binocular is another model than the decay alone" test -n "$(cmp "$tmp/bino1.ply" "$tmp/dec120.ply")"
+# It is opt-in: the default (DropGaussian with the decay) renders no shifted view.
+"$gaussvid" splat train --scene "$scene" --interval 4 --iters 120 --seed 5 --threads 1 --out "$tmp/def120.ply" \
+    > "$tmp/def120.txt" 2>&1
+check "the default is dropgaussian,decay" grep -q "sparse-view regularisers: dropgaussian,decay" "$tmp/def120.txt"
+check "the default has no binocular term" test -s "$tmp/def120.ply" -a -z "$(grep Binocular3DGS "$tmp/def120.txt")"
 bino "$tmp/bino3.ply" --binocular-baseline 0.05 > /dev/null 2>&1
 check "another baseline, another model" test -s "$tmp/bino3.ply" -a -n "$(cmp "$tmp/bino1.ply" "$tmp/bino3.ply")"
-for bad in "--binocular-from 1" "--binocular-from -0.1" "--binocular-baseline 0" "--binocular-baseline 1"; do
-    bino "$tmp/x.ply" $bad > /dev/null 2> "$tmp/err.txt"
-    check "$bad exits 2" test $? -eq 2
-    check "$bad explained in one line" test "$(cat "$tmp/err.txt")" = \
-        "gaussvid splat train: --binocular-from must be in [0, 1) and --binocular-baseline in (0, 1)"
-done
+usage_errors bino "--binocular-from must be in [0, 1) and --binocular-baseline in (0, 1)" \
+    "--binocular-from 1" "--binocular-from -0.1" "--binocular-baseline 0" "--binocular-baseline 1"
 train "$tmp/x.ply" --binocular-from 0.5 > /dev/null 2> "$tmp/err.txt"
 check "--binocular-from without binocular exits 2" test $? -eq 2
 check "--binocular-from without binocular explained in one line" test "$(cat "$tmp/err.txt")" = \
@@ -121,11 +130,7 @@ train "$tmp/drop_0.ply" --regularize dropgaussian --drop-rate 0 > /dev/null 2>&1
 check "dropgaussian --drop-rate 0 is plain 3DGS" cmp -s "$tmp/drop_0.ply" "$tmp/none.ply"
 train "$tmp/drop_05.ply" --regularize dropgaussian --drop-rate 0.5 > /dev/null 2>&1
 check "--drop-rate 0.5 is another model" test -s "$tmp/drop_05.ply" -a -n "$(cmp "$tmp/drop1.ply" "$tmp/drop_05.ply")"
-for bad in "--drop-rate 1" "--drop-rate -0.1"; do
-    train "$tmp/x.ply" $bad > /dev/null 2> "$tmp/err.txt"
-    check "$bad exits 2" test $? -eq 2
-    check "$bad explained in one line" test "$(cat "$tmp/err.txt")" = "gaussvid splat train: --drop-rate must be in [0, 1)"
-done
+usage_errors train "--drop-rate must be in [0, 1)" "--drop-rate 1" "--drop-rate -0.1"
 for bad in dropout dropgaussian,dropgaussian "" dropgaussian, none,dropgaussian; do
     train "$tmp/x.ply" --regularize "$bad" > /dev/null 2> "$tmp/err.txt"
     check "--regularize '$bad' exits 2" test $? -eq 2
