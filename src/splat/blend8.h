@@ -1,8 +1,9 @@
 /* Front-to-back alpha blending of one Gaussian at eight pixels of a tile row, as the
- * reference's renderCUDA tests each pixel (docs/reference/gaussian-splatting.md section 9), shared
- * by the image (rasterize.c), the depth pass (rasterize_depth.c) and its backward
- * (rasterize_depth_backward.c), which must blend exactly the same Gaussians: the alpha threshold, the early stop before T (1 - alpha) < 1e-4, and the tile's
- * pixel bookkeeping. What a blended Gaussian adds (colour, depth) is the caller's. */
+ * reference's renderCUDA tests each pixel (docs/reference/gaussian-splatting.md section 9),
+ * shared by the image (rasterize.c), the depth pass (rasterize_depth.c) and its backward
+ * (rasterize_depth_backward.c), which must blend exactly the same Gaussians: the alpha
+ * threshold, the early stop before T (1 - alpha) < 1e-4, and the tile's pixel bookkeeping.
+ * What a blended Gaussian adds (colour, depth) is the caller's. */
 #ifndef GAUSSVID_SPLAT_BLEND8_H
 #define GAUSSVID_SPLAT_BLEND8_H
 

@@ -120,7 +120,7 @@ int gv_splat_render_backward(gv_splat_renderer *r, const gv_gaussians *g,
 static int depth_grad_arrays(gv_splat_renderer *r, float *a[4])
 {
     if (r->depth_capacity < r->capacity) {
-        if (grow((void **)&r->depth_grads, (size_t)r->capacity * 7 * sizeof(float)))
+        if (grow((void **)&r->depth_grads, (size_t)r->capacity * (2 + 3 + 1 + 1) * sizeof(float)))
             return gv_fail("render: out of memory for the depth gradients of %d Gaussians", r->n);
         r->depth_capacity = r->capacity;
     }

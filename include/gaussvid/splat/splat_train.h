@@ -316,8 +316,9 @@ typedef struct {
     long views;                 /* shifted views rendered */
     double loss_sum, l1_sum, smoothness_sum, baseline_sum; /* over them: the term, its two
                                  * parts (unweighted), |b| */
-    double seconds;             /* the shifted render, the loss and the shifted backward (the
-                                 * depth backward counts in the trainer's backward) */
+    double seconds;             /* the depth pass, the shifted render, the loss and the
+                                 * shifted backward (the depth backward counts in the
+                                 * trainer's backward) */
 } gv_splat_binocular;
 
 /* ---- train.c ----------------------------------------------------------------------------
