@@ -88,6 +88,39 @@ static inline void fix_gaussians(gv_gaussians *g, int n, int sh_degree, const gv
     }
 }
 
+/* The double reference's accumulated depth sum_i w_i z_i of n raw Gaussians (opacities as
+ * logits) in view v, what the depth backward differentiates: each projected
+ * (gv_splat_reference_project), then blended with colour (z, 0, 0) over black; W x H values
+ * into depth_sum, the rasteriser's signature into *signature. */
+static inline void fix_reference_depth_sum(int n, const double *means, const double *scales,
+                                           const double *rotations, const double *opacity_logits,
+                                           const gv_splat_view *v, double *depth_sum,
+                                           uint64_t *signature)
+{
+    size_t pixels = (size_t)v->width * v->height, m = n > 0 ? (size_t)n : 1;
+    double *m2 = malloc((10 * m + 3 * pixels) * sizeof(double));
+    int *radii = malloc(m * sizeof(int));
+    if (!m2 || !radii) {
+        fprintf(stderr, "fixture: out of memory for the reference depth\n");
+        exit(1);
+    }
+    double *con = m2 + 2 * m, *col = con + 3 * m, *op = col + 3 * m, *z = op + m, *image = z + m;
+    double zero[3] = {0, 0, 0};
+    for (int i = 0; i < n; i++) {
+        gv_splat_ref_projection p;
+        radii[i] = gv_splat_reference_project(means + 3 * i, scales + 3 * i, rotations + 4 * i, v, &p)
+                       ? p.radius : 0;
+        m2[2 * i] = p.mean2d[0], m2[2 * i + 1] = p.mean2d[1];
+        for (int k = 0; k < 3; k++) con[3 * i + k] = p.conic[k];
+        z[i] = p.depth, op[i] = 1 / (1 + exp(-opacity_logits[i]));
+        col[3 * i] = p.depth, col[3 * i + 1] = col[3 * i + 2] = 0;
+    }
+    gv_splat_reference_rasterize(n, v->width, v->height, m2, con, col, op, z, radii, zero, image,
+                                 signature);
+    for (size_t p = 0; p < pixels; p++) depth_sum[p] = image[3 * p];
+    free(m2), free(radii);
+}
+
 /* ---- finite differences ------------------------------------------------------------- */
 typedef double (*fix_eval_fn)(void *ctx, uint64_t *signature);
 

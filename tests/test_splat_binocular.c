@@ -294,22 +294,10 @@ typedef struct {
 static double render_loss(void *ctx, uint64_t *signature)
 {
     render_fd *c = ctx;
-    static double image[NPIX * 3], D[NPIX], shifted[NPIX * 3];
-    static double m2[2 * N3], con[3 * N3], col[3 * N3], op[N3], z[N3];
-    int radii[N3];
-    double bg[3] = {0.1, 0.2, 0.3}, zero[3] = {0, 0, 0};
-    for (int i = 0; i < N3; i++) {
-        gv_splat_ref_projection p;
-        radii[i] = gv_splat_reference_project(c->means + 3 * i, c->scales + 3 * i,
-                                              c->rotations + 4 * i, c->view, &p) ? p.radius : 0;
-        m2[2 * i] = p.mean2d[0], m2[2 * i + 1] = p.mean2d[1];
-        for (int k = 0; k < 3; k++) con[3 * i + k] = p.conic[k];
-        z[i] = p.depth, op[i] = 1 / (1 + exp(-c->opacities[i]));
-        col[3 * i] = p.depth, col[3 * i + 1] = col[3 * i + 2] = 0;
-    }
+    static double D[NPIX], shifted[NPIX * 3];
+    double bg[3] = {0.1, 0.2, 0.3};
     uint64_t s1, s2, s3;
-    gv_splat_reference_rasterize(N3, W, H, m2, con, col, op, z, radii, zero, image, &s1);
-    for (int p = 0; p < NPIX; p++) D[p] = image[3 * p];
+    fix_reference_depth_sum(N3, c->means, c->scales, c->rotations, c->opacities, c->view, D, &s1);
     gv_splat_reference_render(N3, 0, 0, c->means, c->sh, c->opacities, c->scales, c->rotations,
                               c->moved, bg, shifted, &s2);
     double loss = term_double(c->target, D, shifted, W, H, c->fx, c->b, &s3);
