@@ -7,7 +7,9 @@
 # view is dragged. Then Chromium alone (--screenshot, no DevTools client) opens viewer.html as
 # a user's browser would: no uncaught error, and the screenshot, taken when the page's load
 # event has fired, shows the model on at least 30% of the canvas (tests/report/png_unlike.c
-# measures it). Skipped (77) without Debian's chromium or a Node with WebSocket (>= 20).
+# measures it). Skipped (77) without Debian's chromium, a Node with WebSocket (>= 20), or the
+# viewer's JavaScript in the source tree (scripts/setup.sh makes it; CMakeLists.txt builds the
+# program without the viewer when it is missing, and `gaussvid report` then writes no viewer).
 # Usage: bash report_browser.sh /path/to/gaussvid /path/to/png_unlike
 source "$(dirname "$0")/lib/harness.sh"
 cli_setup report_browser "$1"
@@ -17,6 +19,9 @@ chromium=$(command -v chromium || true)
 if [ -z "$chromium" ]; then echo "chromium is not installed (apt-get install chromium): skipped"; exit 77; fi
 if ! node --experimental-websocket -e 'if (typeof WebSocket !== "function") process.exit(1)' 2>/dev/null; then
     echo "node >= 20 with WebSocket is needed for the DevTools protocol: skipped"; exit 77
+fi
+if [ ! -s "$here/../third_party/viewer/dist/viewer.js" ]; then
+    echo "third_party/viewer/dist/viewer.js is missing (scripts/setup.sh makes it): skipped"; exit 77
 fi
 
 "$G" scene synth --seed 3 --frames 14 --size 32x32 --samples 1 --out "$T/scene" --quiet
