@@ -233,17 +233,6 @@ static int reported_velocity(void *ctx, const float *x, double sigma, float *v)
     return rc;
 }
 
-/* gv_restore_latent with each evaluation reported. */
-static int restore_latent_reported(gv_dit *m, const gv_clip_latents *l, const gv_sampler *s, float *z)
-{
-    gv_restore_net net;
-    int rc = gv_restore_net_init(&net, m, l, 1);
-    net.bf16_time = s->release;
-    if (rc == 0) rc = gv_sample(s, reported_velocity, &net, l->z_corrupt, gv_clip_latents_z_count(l), 7, z);
-    gv_restore_net_free(&net);
-    return rc;
-}
-
 /* restore's work on one clip (restore_run.c): encodes, the sampler, decodes. */
 static int work_restore(gv_dit *m, const gv_model_config *c, const stream_job *j, gv_clip_latents *l)
 {
@@ -260,7 +249,7 @@ static int work_restore(gv_dit *m, const gv_model_config *c, const stream_job *j
     }
     gv_sampler s;
     if (rc == 0) rc = gv_sampler_from_name("released", &s);
-    if (rc == 0) rc = restore_latent_reported(m, l, &s, z);
+    if (rc == 0) rc = gv_restore_latent_with(m, l, &s, 7, reported_velocity, z);
     if (rc == 0) report("sampler: released, 10 Euler steps");
     for (int k = 0; rc == 0 && k < 2; k++) { /* residual decoding: D(z) and D(z-hat) */
         rc = gv_vae_decode(&vae, k ? l->z_corrupt : z, l->latent_frames, l->lh, l->lw, 0, 1, video);

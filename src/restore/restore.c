@@ -92,6 +92,12 @@ int gv_restore_net_velocity(void *ctx, const float *x, double sigma, float *v)
 
 int gv_restore_latent(gv_dit *m, const gv_clip_latents *l, const gv_sampler *s, uint64_t clip_seed, float *z_out)
 {
+    return gv_restore_latent_with(m, l, s, clip_seed, gv_restore_net_velocity, z_out);
+}
+
+int gv_restore_latent_with(gv_dit *m, const gv_clip_latents *l, const gv_sampler *s, uint64_t clip_seed,
+                           gv_velocity_fn velocity, float *z_out)
+{
     if (gv_sampler_check(s)) return -1;
     if (s->kind == GV_SAMPLER_IDENTITY) {
         memcpy(z_out, l->z_corrupt, (size_t)gv_clip_latents_z_count(l) * sizeof *z_out);
@@ -100,7 +106,7 @@ int gv_restore_latent(gv_dit *m, const gv_clip_latents *l, const gv_sampler *s, 
     gv_restore_net net;
     int rc = gv_restore_net_init(&net, m, l, 1);
     net.bf16_time = s->release;
-    if (rc == 0) rc = gv_sample(s, gv_restore_net_velocity, &net, l->z_corrupt, gv_clip_latents_z_count(l), clip_seed, z_out);
+    if (rc == 0) rc = gv_sample(s, velocity, &net, l->z_corrupt, gv_clip_latents_z_count(l), clip_seed, z_out);
     gv_restore_net_free(&net);
     return rc;
 }

@@ -109,6 +109,10 @@ void gv_restore_net_free(gv_restore_net *r);
 int gv_restore_net_velocity(void *ctx, const float *x, double sigma, float *v);
 /* The restored latent of a clip (gv_clip_latents_z_count floats). */
 int gv_restore_latent(gv_dit *m, const gv_clip_latents *l, const gv_sampler *s, uint64_t clip_seed, float *z_out);
+/* The same with the sampler calling velocity (ctx: the gv_restore_net) instead of
+   gv_restore_net_velocity: a caller that observes each network evaluation wraps that one. */
+int gv_restore_latent_with(gv_dit *m, const gv_clip_latents *l, const gv_sampler *s, uint64_t clip_seed,
+                           gv_velocity_fn velocity, float *z_out);
 
 /* ---- composition (restore_compose.c) ----------------------------------------------------- */
 typedef enum { GV_COMPOSE_DECODED, GV_COMPOSE_RESIDUAL, GV_COMPOSE_UNSEEN } gv_compose;
