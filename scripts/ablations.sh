@@ -25,7 +25,6 @@
 #   anchors     none / first / both (ours)
 #   adaptation  zero-shot base / vanilla LoRA (no camera, shuffle) / per-frame restorer / ours
 set -euo pipefail
-export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} # threads sleep while they wait (docs/BENCHMARKS.md)
 
 G=${GAUSSVID:-build/gaussvid}
 W=${1:-runs/small}

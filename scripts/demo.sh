@@ -37,7 +37,6 @@
 #                           it to the room and without the gate (reconstruct --restore-with
 #                           checkpoint) [1]
 set -euo pipefail
-export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} # threads sleep while they wait (docs/BENCHMARKS.md)
 gaussvid=${1:-build/gaussvid}
 out=${2:-demo}
 seed=${GV_DEMO_SEED:-1}

@@ -23,7 +23,6 @@
 # Outputs in WORK_DIR: scenes/, data/ (train and eval splits), vae.safetensors,
 # base.safetensors, gaussvid.safetensors, eval.json and eval.md, times.tsv (seconds per stage).
 set -euo pipefail
-export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} # threads sleep while they wait (docs/BENCHMARKS.md)
 
 G=${GAUSSVID:-build/gaussvid}
 W=${1:-runs/small}
