@@ -10,7 +10,7 @@ else()
 endif()
 
 # The test programs get the OpenBLAS kernels the gaussvid program chooses for itself
-# (src/cli/main.c): on a CPU whose model OpenBLAS does not know it falls back to SSE3 kernels,
+# (src/cli/runtime_env.c): on a CPU whose model OpenBLAS does not know it falls back to SSE3 kernels,
 # whose results depend on the thread count (test_nn_core's 1- vs 2-thread check failed on
 # such a machine). Read from the CPU's flags when the tests are configured; the default leaves
 # OpenBLAS's own choice.

@@ -16,6 +16,11 @@ int gv_run_subcommand(const char *group, const gv_subcommand *table, int n, int 
  * prints a usage line naming the command and returns 2. */
 int gv_parse_crop(const char *command, const char *text, int *rows, int *cols);
 
+/* Sets what libgomp and OpenBLAS read when they load, unless the user set it: a short spin
+ * before a waiting OpenMP thread sleeps, OpenBLAS kernels the CPU supports; then re-executes
+ * the program once (runtime_env.c). Call first in main. */
+void gv_prefer_runtime_env(char **argv);
+
 int cmd_metrics(int argc, char **argv);
 int cmd_metrics_consistency(int argc, char **argv);
 int cmd_model(int argc, char **argv);

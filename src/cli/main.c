@@ -1,10 +1,7 @@
 /* gaussvid: one program, one subcommand per stage of the pipeline. */
-#include <cblas.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
-#include <unistd.h>
 
 #include "cli/commands.h"
 #include "gaussvid/core/core.h"
@@ -43,46 +40,6 @@ static void print_usage(FILE *out)
     fprintf(out, "  %-12s %s\n", "version", "print the version");
 }
 
-/* OpenBLAS picks its kernels from the CPU's model number; on a virtual CPU whose model it does
- * not know ("Intel(R) Xeon(R) Processor") it falls back to the SSE3 "Prescott" kernels, which
- * ran sgemm 6x slower than the AVX-512 ones on such a machine (docs/BENCHMARKS.md). The kernel
- * the CPU's feature flags allow, when OpenBLAS chose a pre-AVX2 one; NULL otherwise. */
-static const char *better_blas_core(void)
-{
-    static const char *const pre_avx2[] = {"Prescott", "Core2", "Penryn", "Dunnington", "Nehalem", "Atom",
-                                           "Sandybridge", "Katmai", "Coppermine", "Northwood", "Banias", NULL};
-    const char *core = openblas_get_corename();
-    int weak = 0;
-    for (int i = 0; core && pre_avx2[i]; i++) weak |= !strcasecmp(core, pre_avx2[i]);
-    if (!weak) return NULL;
-    __builtin_cpu_init();
-    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-        __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl"))
-        return "SkylakeX";
-    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return "Haswell";
-    return NULL;
-}
-
-/* The run-time environment that libgomp and OpenBLAS read when they are loaded, before main,
- * hence one re-execution when something must change; if it fails the program runs as it is.
- * Unless the user chose a wait policy, a thread that waits for the others spins for 3000
- * rounds (about 30 us) and then sleeps. Sleeping at once (OMP_WAIT_POLICY=passive) costs a
- * wake-up of the idle core at each of the dozens of parallel regions and barriers of a 3DGS
- * iteration: 20 % of splat train's time on an idle machine. Spinning for long (libgomp's
- * default of about 3 ms, or OMP_WAIT_POLICY=active) spins against a descheduled peer as soon
- * as another job shares the cores: two-thread runs 6-9x slower. The short spin kept the whole
- * gain idle and cost 7-12 % under that load (docs/BENCHMARKS.md, "Thread wait policy").
- * OpenBLAS gets the kernels the CPU supports unless OPENBLAS_CORETYPE is set. */
-static void prefer_runtime_env(char **argv)
-{
-    int changed = 0;
-    if (!getenv("OMP_WAIT_POLICY") && !getenv("GOMP_SPINCOUNT"))
-        changed |= setenv("GOMP_SPINCOUNT", "3000", 1) == 0;
-    const char *core = getenv("OPENBLAS_CORETYPE") ? NULL : better_blas_core();
-    if (core) changed |= setenv("OPENBLAS_CORETYPE", core, 1) == 0;
-    if (changed) execv("/proc/self/exe", argv);
-}
-
 /* The commands that share their work among the ranks of an mpirun job (docs/DISTRIBUTED.md);
  * any other would run K times over into the same files. */
 static int shares_work(int argc, char **argv)
@@ -94,7 +51,7 @@ static int shares_work(int argc, char **argv)
 
 int main(int argc, char **argv)
 {
-    prefer_runtime_env(argv);
+    gv_prefer_runtime_env(argv);
     if (argc < 2) {
         print_usage(stderr);
         return 2;
